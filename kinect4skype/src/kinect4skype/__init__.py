@@ -1,0 +1,1 @@
+"""kinect4skype: pcl2image, point clouds rendered into an image topic."""

@@ -1,0 +1,1 @@
+"""World plugins (sensors, displays) created by the Gazebo/thesis library name."""

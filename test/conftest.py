@@ -1,0 +1,12 @@
+"""Shared pytest set-up: makes the stack libraries importable straight from the
+source tree, so unit tests run without a catkin build or roscore."""
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+for stack in ('simvid', 'textvid', 'kinect4skype', 'vnc_image_client'):
+    src = os.path.join(ROOT, stack, 'src')
+    if src not in sys.path:
+        sys.path.insert(0, src)
+os.environ.setdefault('PYOPENGL_PLATFORM', 'osmesa')
+os.environ.setdefault('ROS_HOSTNAME', 'localhost')

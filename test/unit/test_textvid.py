@@ -2,6 +2,7 @@
 No roscore: the plugin runs with a world whose ros_enabled is False and a recording renderer."""
 import logging
 import threading
+import time
 import xml.etree.ElementTree as ET
 
 import cv2
@@ -220,7 +221,8 @@ def test_callback_and_render_threads_never_see_a_torn_image():
     t.start()
     seen = 0
     try:
-        for _ in range(3000):
+        deadline = time.monotonic() + 10.0
+        while seen < 20 and time.monotonic() < deadline:
             img = tex.take()
             if img is not None:
                 seen += 1
@@ -228,7 +230,7 @@ def test_callback_and_render_threads_never_see_a_torn_image():
     finally:
         stop.set()
         t.join()
-    assert seen > 1 and lines == []
+    assert seen >= 20 and lines == []
 
 
 # --- the plugin ------------------------------------------------------------------------------
@@ -306,13 +308,31 @@ def test_create_logs_one_line_and_the_model_keeps_going(caplog):
 def test_defaults_and_namespace():
     p = plugins.create(_spec('<bodyName>mobile_display</bodyName>'), _model(), FakeWorld())
     assert p.image_topic == '/monitor/image_in' and p.load_topic == '/monitor/load_file'
-    assert p.face == 'front' and (p.texture.width, p.texture.height) == video.DEFAULT_SIZE
+    assert p.face == 'front' and p.update_rate == video.DEFAULT_RATE
+    # the display box is 0.1 (x) by 0.06 (y); on the +z face the image's top is towards +x
+    assert (p.texture.width, p.texture.height) == (307, 512)
     q = plugins.create(_spec('<bodyName>mobile_display</bodyName><imageTopic>image_in'
                              '</imageTopic><imageLoad>/abs/load</imageLoad><face>-z</face>'
                              '<textureWidth>480</textureWidth><textureHeight>800'
                              '</textureHeight>'), _model(ns='/mobile_device'), FakeWorld())
     assert q.image_topic == '/mobile_device/image_in' and q.load_topic == '/abs/load'
     assert q.face == '-z' and (q.texture.width, q.texture.height) == (480, 800)
+
+
+@pytest.mark.parametrize('xml, size', [
+    ('', (307, 512)),
+    ('<face>back</face>', (307, 512)),
+    ('<face>all</face>', (307, 512)),
+    ('<face>+x</face>', (512, 17)),            # 0.06 wide, 0.002 high: clamped to 16+ px
+    ('<face>-y</face>', (512, 10 + 6)),
+    ('<textureWidth>300</textureWidth>', (300, 500)),
+    ('<textureHeight>100</textureHeight>', (60, 100)),
+    ('<textureWidth>64</textureWidth><textureHeight>64</textureHeight>', (64, 64)),
+])
+def test_texture_size_follows_the_face(xml, size):
+    p = plugins.create(_spec('<bodyName>mobile_display</bodyName>' + xml), _model(),
+                       FakeWorld())
+    assert (p.texture.width, p.texture.height) == size
 
 
 def test_thesis_syntax_loads():
@@ -344,6 +364,19 @@ def test_update_uploads_blue_then_each_new_image_once():
     assert len(calls) == 2 and np.array_equal(calls[1][2], RGB)
     p.shutdown()
     assert calls[-1][2] is None                  # back to the material
+
+
+def test_no_renderer_is_created_for_a_display_nobody_looks_at():
+    world = FakeWorld()
+    renderer = world.renderer
+    world._renderer = None                      # like World before the first camera
+    p = plugins.create(_spec('<bodyName>mobile_display</bodyName>'), _model(), world)
+    p.on_image(array_to_image(RGB, 'rgb8'))
+    p.update(0.0)
+    assert renderer.calls == []
+    world._renderer = renderer                  # a camera created it: the image follows
+    p.update(0.1)
+    assert len(renderer.calls) == 1 and renderer.calls[0][2].shape == (512, 307, 3)
 
 
 def test_two_displays_keep_their_own_images():

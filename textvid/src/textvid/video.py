@@ -8,8 +8,10 @@ URDF (both syntaxes of ``simvid.plugins`` load it)::
         <bodyName>mobile_display</bodyName>              <!-- mandatory, a link of THIS model -->
         <imageTopic>/mobile_device/image_in</imageTopic> <!-- default /monitor/image_in -->
         <imageLoad>/mobile_device/load_file</imageLoad>  <!-- default /monitor/load_file -->
-        <face>front</face>             <!-- front (= +z of the link), +x -x +y -y +z -z, all -->
-        <textureWidth>512</textureWidth> <textureHeight>512</textureHeight>
+        <face>front</face>    <!-- front (= +z of the link), back (= -z), +x -x +y -y, all -->
+        <textureWidth>480</textureWidth>   <!-- default: 512 px on the face's long side, -->
+        <textureHeight>800</textureHeight> <!-- the face's aspect on the other -->
+        <updateRate>60</updateRate>        <!-- Hz (sim time) of texture updates; 0 = every step -->
       </controller:gazebo_ros_video>
     </gazebo>
 
@@ -44,10 +46,13 @@ log = logging.getLogger('textvid.video')
 #: encodings the display accepts (thesis table 4.3; the 8UC/8SC names are OpenCV's)
 ENCODINGS = ('rgb8', 'rgba8', 'bgra8', 'bgr8', 'mono8',
              '8UC1', '8UC3', '8UC4', '8SC1', '8SC3', '8SC4')
-#: faces of the link's box the texture can be drawn on ('front' is +z of the link)
-FACES = ('front', '+x', '-x', '+y', '-y', '+z', '-z', 'all')
+#: faces of the link's box the texture can be drawn on ('front' is +z of the link, 'back' -z)
+FACES = ('front', 'back', '+x', '-x', '+y', '-y', '+z', '-z', 'all')
 BLUE = (0, 0, 255)
-DEFAULT_SIZE = (512, 512)   # texture width, height
+DEFAULT_SIZE = (512, 512)   # texture width, height of VideoTexture when none is given
+LONG_SIDE = 512             # the plugin's default: this many pixels on the face's long side
+MIN_SIDE = 16
+DEFAULT_RATE = 60.0         # Hz of sim time at which new images are handed to the renderer
 MAX_SIZE = 4096
 
 
@@ -200,18 +205,16 @@ class VideoPlugin(Plugin):
         if face not in FACES:
             raise PluginError('<face> %r is not one of %s' % (face, ', '.join(FACES)))
         self.face = face
-        size = []
-        for name, default in (('textureWidth', DEFAULT_SIZE[0]),
-                              ('textureHeight', DEFAULT_SIZE[1])):
-            v = self.float_param(name, default=default)
-            if not (v == int(v) and 0 < v <= MAX_SIZE):
-                raise PluginError('<%s> must be a whole number of pixels in 1..%d, got %r'
-                                  % (name, MAX_SIZE, v))
-            size.append(int(v))
+        self.size = self._texture_size(boxes[0].geometry.size)
+        rate = self.float_param('updateRate', default=DEFAULT_RATE)
+        if not (rate >= 0 and rate < 1e6):
+            raise PluginError('<updateRate> must be >= 0 Hz, got %r' % rate)
+        self.update_rate = rate
         self.image_topic = self.resolve(self.param('imageTopic', default='/monitor/image_in'))
         self.load_topic = self.resolve(self.param('imageLoad', default='/monitor/load_file'))
         label = 'video texture %s/%s' % (self.model.name, body)
-        self.texture = VideoTexture(size[0], size[1], name=label, logger=self._log_error)
+        self.texture = VideoTexture(self.size[0], self.size[1], name=label,
+                                    logger=self._log_error)
         self._render_failed = False
         self._uploaded = False
         self._subs = []
@@ -225,7 +228,41 @@ class VideoPlugin(Plugin):
                 rospy.Subscriber(self.load_topic, String, self.on_load_file, queue_size=10),
             ]
             rospy.loginfo('%s: image topic %s, file topic %s, face %s, texture %dx%d',
-                          label, self.image_topic, self.load_topic, self.face, size[0], size[1])
+                          label, self.image_topic, self.load_topic, self.face, *self.size)
+
+    def face_extent(self, box_size):
+        """(width, height) in metres of the face the texture is drawn on; the renderer
+        puts the image's top edge towards +x on the z faces and towards +z on the others."""
+        sx, sy, sz = (float(v) for v in box_size)
+        face = {'front': '+z', 'back': '-z', 'all': '+z'}.get(self.face, self.face)
+        return {'z': (sy, sx), 'x': (sy, sz), 'y': (sx, sz)}[face[1]]
+
+    def _texture_size(self, box_size):
+        """Texture (width, height): <textureWidth>/<textureHeight> when given, else
+        LONG_SIDE pixels on the long side of the face and its aspect ratio on the other
+        (so the display's pixels are square)."""
+        given = []
+        for name in ('textureWidth', 'textureHeight'):
+            v = self.float_param(name)
+            if v is not None and not (v == int(v) and 0 < v <= MAX_SIZE):
+                raise PluginError('<%s> must be a whole number of pixels in 1..%d, got %r'
+                                  % (name, MAX_SIZE, v))
+            given.append(None if v is None else int(v))
+        fw, fh = self.face_extent(box_size)
+        w, h = given
+        if w is not None and h is not None:
+            return w, h
+        if w is None and h is None:
+            if fw >= fh:
+                w, h = LONG_SIDE, LONG_SIDE * fh / fw
+            else:
+                w, h = LONG_SIDE * fw / fh, LONG_SIDE
+        elif w is None:
+            w = h * fw / fh
+        else:
+            h = w * fh / fw
+        clamp = lambda v: int(min(MAX_SIZE, max(MIN_SIDE, round(v))))  # noqa: E731
+        return clamp(w), clamp(h)
 
     def _log_error(self, text):
         if getattr(self.world, 'ros_enabled', False):
@@ -243,6 +280,10 @@ class VideoPlugin(Plugin):
 
     # -- render thread ---------------------------------------------------------------------
     def update(self, sim_time):
+        if getattr(self.world, '_renderer', True) is None:
+            # No renderer yet: nobody looks. Creating one here would make every world with
+            # a display pay for a GL context; the image waits until a camera creates it.
+            return
         img = self.texture.take()
         if img is None:
             return

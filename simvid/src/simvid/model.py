@@ -264,6 +264,7 @@ class Model(object):
             raise ModelError('model %r must have exactly one root link, has %d: %s'
                              % (self.name, len(roots), roots))
         self.link_poses()  # detects loops / unreachable links
+        self.resolve_paths()
         for p in self.plugins:
             if p.link is not None and p.link not in self.links:
                 raise ModelError('<gazebo reference="%s"> names an unknown link of model %r'
@@ -289,6 +290,18 @@ class Model(object):
         if missing:
             raise ModelError('links not connected to the root: %s' % sorted(missing))
         return poses
+
+    def resolve_paths(self):
+        """Make every mesh and texture reference an absolute file path (idempotent)."""
+        for link in self.links.values():
+            for v in link.visuals:
+                if v.geometry.kind == 'mesh':
+                    v.geometry.filename = self.resolve_path(v.geometry.filename)
+                if v.material.texture:
+                    v.material.texture = self.resolve_path(v.material.texture)
+            for c in link.collisions:
+                if c.geometry.kind == 'mesh':
+                    c.geometry.filename = self.resolve_path(c.geometry.filename)
 
     def resolve_path(self, path):
         """Absolute path of a mesh/texture reference (file://, package://, relative)."""

@@ -1,0 +1,382 @@
+"""The one interface every physics backend implements, and what the backends share.
+
+Interface (``PhysicsEngine``; ``simvid.world.World`` uses nothing else)::
+
+    engine = make_engine('ode' | 'bullet', step_size=0.001, gravity=(0, 0, -9.81))
+    engine.name                      # 'ode' or 'bullet'
+    engine.step_size                 # seconds, fixed for the engine's life
+    engine.add_model(model)          # simvid.model.Model; model.pose = world pose of its
+                                     # root link; model.static -> immovable shapes only
+    engine.remove_model(name)        # KeyError if unknown
+    engine.has_model(name)
+    engine.model_names()             # names in the order they were added
+    engine.model_pose(name)          # Pose: world pose of the root link
+    engine.set_model_pose(name, pose)    # teleport; the twist is kept
+    engine.model_twist(name)         # (lin, ang) numpy arrays, world frame, of the root
+                                     # link origin (not of the centre of mass)
+    engine.set_model_twist(name, lin, ang)
+    engine.link_poses(name)          # {link name: Pose in the world}
+    engine.in_contact(name)          # True if the model touches something in its current
+                                     # state (penetration depth >= 0), i.e. in the contact
+                                     # pass that follows the last step
+    engine.step(n=1)                 # n fixed steps of step_size
+    engine.set_gravity(g)
+    engine.close()                   # frees the native world (Bullet's client)
+
+Bad input raises a ``ValueError`` subclass whose message names the model and the problem:
+``simvid.model.ModelError`` (zero/negative/NaN mass, inertia that is not positive
+definite, a plane on a moving model, an unreadable mesh, a duplicate name, no links ...)
+or ``simvid.transforms.InvalidPose`` (NaN/inf position, quaternion that cannot be
+normalised). Nothing is added to the engine when ``add_model`` raises.
+
+Rigid bodies. Every link of a model becomes part of ONE rigid body, as Gazebo does when it
+converts a URDF with fixed joints: the masses add up, the centre of mass is the
+mass-weighted mean, the inertia tensors are rotated into one frame and moved to the common
+centre of mass with the parallel-axis theorem, and every collision shape is attached with
+its offset. Joints other than ``fixed`` are lumped too (at their zero position); each
+such joint is named in one warning, because articulated joints are not simulated yet.
+The body's native frame is the centre of mass with principal inertia axes (ODE requires
+the COM at the body origin, Bullet a diagonal inertia); the engine keeps the link-frame to
+COM offset, so the interface always speaks link-frame poses and link-origin twists.
+A model with no mass (no link has an ``<inertial>``) must be static.
+
+Gravity. A body floats (no gravity) when every one of its links has ``gravity`` False
+(``<turnGravityOff>true</turnGravityOff>``); if only some links have it, gravity stays on
+and one warning says so. ODE: ``Body.setGravityMode(False)``; Bullet: a force opposing
+gravity is applied at the centre of mass before each step.
+
+Collisions: box, sphere, cylinder (axis z), plane (infinite, static models only) and mesh
+(loaded with trimesh; static meshes are exact triangle meshes, meshes of moving models
+are triangle meshes in ODE and convex hulls in Bullet). Contacts have Coulomb friction
+``mu`` (1.0, Gazebo's default) and no bounce.
+"""
+import logging
+import math
+
+import numpy as np
+
+from ..model import Model, ModelError
+from ..transforms import InvalidPose, Pose, matrix_to_quat
+
+__all__ = ['PhysicsEngine', 'BodySpec', 'lump_model', 'load_mesh', 'check_pose',
+           'check_vector']
+
+log = logging.getLogger('simvid.physics')
+
+#: Coulomb friction coefficient of every contact (Gazebo's default surface mu)
+FRICTION = 1.0
+
+_mesh_cache = {}
+
+
+def check_pose(pose, what):
+    """Raise InvalidPose unless ``pose`` has a finite position and a normalisable
+    quaternion; returns a Pose with a unit quaternion."""
+    if not isinstance(pose, Pose):
+        raise InvalidPose('%s: expected a simvid.transforms.Pose, got %r' % (what, pose))
+    p = np.asarray(pose.p, dtype=float)
+    q = np.asarray(pose.q, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise InvalidPose('%s: position %s is not three finite numbers' % (what, list(p)))
+    if q.shape != (4,) or not np.all(np.isfinite(q)):
+        raise InvalidPose('%s: quaternion %s is not four finite numbers' % (what, list(q)))
+    n = float(np.linalg.norm(q))
+    if n < 1e-6:
+        raise InvalidPose('%s: quaternion %s cannot be normalised (norm %.3g)'
+                          % (what, list(q), n))
+    return Pose(p.copy(), q / n, normalize=False)
+
+
+def check_vector(v, what):
+    try:
+        a = np.asarray(v, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError('%s: %r is not three numbers' % (what, v))
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError('%s: %s is not three finite numbers' % (what, list(a)))
+    return a
+
+
+def load_mesh(path, scale=(1.0, 1.0, 1.0)):
+    """(vertices Nx3 float64, faces Mx3 int32) of a mesh file, scaled; cached.
+    Raises ModelError naming the file when it cannot be read."""
+    key = (path, tuple(float(s) for s in scale))
+    if key in _mesh_cache:
+        return _mesh_cache[key]
+    try:
+        import trimesh
+        mesh = trimesh.load(path, force='mesh')
+        verts = np.asarray(mesh.vertices, dtype=float) * np.asarray(scale, dtype=float)
+        faces = np.asarray(mesh.faces, dtype=np.int32)
+    except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
+        raise ModelError('cannot load mesh %r: %s' % (path, e))
+    if len(verts) == 0 or len(faces) == 0:
+        raise ModelError('mesh %r has no triangles' % path)
+    if not np.all(np.isfinite(verts)):
+        raise ModelError('mesh %r has non-finite vertices' % path)
+    _mesh_cache[key] = (verts, faces)
+    return verts, faces
+
+
+class Shape(object):
+    """One collision shape of a body: geometry, pose in the model's root-link frame, and
+    the loaded mesh (vertices, faces) for meshes."""
+    __slots__ = ('geometry', 'pose', 'mesh', 'link', 'name')
+
+    def __init__(self, geometry, pose, mesh=None, link='', name=''):
+        self.geometry = geometry
+        self.pose = pose
+        self.mesh = mesh
+        self.link = link
+        self.name = name
+
+
+class BodySpec(object):
+    """A model reduced to what a physics engine needs.
+
+    static: immovable; mass (kg), com: Pose of the principal inertia frame at the centre
+    of mass in the root-link frame, inertia: principal moments (3,), gravity: False when
+    the body floats, shapes: [Shape], link_offsets: {link: Pose in the root-link frame}.
+    """
+
+    def __init__(self, name, static, mass, com, inertia, gravity, shapes, link_offsets):
+        self.name = name
+        self.static = static
+        self.mass = mass
+        self.com = com
+        self.inertia = inertia
+        self.gravity = gravity
+        self.shapes = shapes
+        self.link_offsets = link_offsets
+
+
+def _principal_frame(tensor):
+    """Rotation matrix (columns = principal axes, det +1) and principal moments."""
+    moments, axes = np.linalg.eigh(0.5 * (tensor + tensor.T))
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    return axes, moments
+
+
+def lump_model(model):
+    """Validate ``model`` and merge all its links into one BodySpec (see module doc)."""
+    if not isinstance(model, Model):
+        raise ModelError('expected a simvid.model.Model, got %r' % (model,))
+    if not isinstance(model.name, str) or not model.name:
+        raise ModelError('a model needs a non-empty name, got %r' % (model.name,))
+    what = 'model %r' % model.name
+    model.validate()
+    root_pose = check_pose(model.pose, what + ' pose')
+    del root_pose
+    offsets = model.link_poses()
+    for j in model.joints:
+        if j.type != 'fixed':
+            log.warning('%s: joint %r (%s) is simulated as fixed: every link of a model is '
+                        'lumped into one rigid body', what, j.name, j.type)
+    shapes = []
+    masses, centres, tensors = [], [], []
+    gravity_flags = []
+    for lname, link in model.links.items():
+        lpose = offsets[lname]
+        gravity_flags.append(bool(link.gravity))
+        for c in link.collisions:
+            g = c.geometry
+            g._check()
+            cpose = lpose * check_pose(c.origin, '%s link %r collision origin' % (what, lname))
+            mesh = None
+            if g.kind == 'plane':
+                if not model.static:
+                    raise ModelError('%s: link %r has a plane collision, which only a static '
+                                     'model may have' % (what, lname))
+                n = np.asarray(g.normal, dtype=float)
+                if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:
+                    raise ModelError('%s: link %r plane normal %s is not a direction'
+                                     % (what, lname, list(n)))
+            elif g.kind == 'mesh':
+                path = model.resolve_path(g.filename)
+                try:
+                    mesh = load_mesh(path, g.scale)
+                except ModelError as e:
+                    raise ModelError('%s link %r: %s' % (what, lname, e))
+            shapes.append(Shape(g, cpose, mesh, lname, c.name))
+        if model.static or link.inertial is None:
+            continue
+        ine = link.inertial
+        m = float(ine.mass)
+        if not (math.isfinite(m) and m > 0):
+            raise ModelError('%s: link %r mass must be a positive number, got %r'
+                             % (what, lname, ine.mass))
+        t = np.asarray(ine.inertia, dtype=float)
+        if t.shape != (3, 3) or not np.all(np.isfinite(t)):
+            raise ModelError('%s: link %r inertia is not a finite 3x3 tensor' % (what, lname))
+        if np.min(np.linalg.eigvalsh(0.5 * (t + t.T))) < -1e-12:
+            raise ModelError('%s: link %r inertia has a negative principal moment'
+                             % (what, lname))
+        ipose = lpose * check_pose(ine.origin, '%s link %r inertial origin' % (what, lname))
+        r = ipose.matrix()[:3, :3]
+        masses.append(m)
+        centres.append(ipose.p)
+        tensors.append(r.dot(t).dot(r.T))
+    if model.static:
+        return BodySpec(model.name, True, 0.0, Pose(), np.zeros(3), True, shapes, offsets)
+    if not masses:
+        raise ModelError('%s is not static but none of its links has an <inertial> with a '
+                         'positive mass' % what)
+    total = float(sum(masses))
+    com = sum(m * c for m, c in zip(masses, centres)) / total
+    tensor = np.zeros((3, 3))
+    for m, c, t in zip(masses, centres, tensors):
+        d = c - com
+        tensor += t + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    axes, moments = _principal_frame(tensor)
+    if not np.all(moments > 1e-12 * max(1.0, float(np.max(np.abs(moments))))):
+        raise ModelError('%s: inertia is not positive definite (principal moments %s kg m^2); '
+                         'give its links non-zero ixx, iyy, izz'
+                         % (what, [float('%.3g' % x) for x in moments]))
+    gravity = any(gravity_flags)
+    if gravity and not all(gravity_flags):
+        log.warning('%s: only some links turn gravity off; the lumped body keeps gravity',
+                    what)
+    return BodySpec(model.name, False, total, Pose(com, matrix_to_quat(axes)), moments,
+                    gravity, shapes, offsets)
+
+
+class Record(object):
+    """What an engine keeps per model."""
+
+    def __init__(self, spec, pose):
+        self.spec = spec
+        self.name = spec.name
+        self.static = spec.static
+        self.pose = pose                    # static models: world pose of the root link
+        self.com_inv = spec.com.inverse()   # body (COM) frame -> root link frame
+        self.native = None                  # engine-specific handles
+
+
+class PhysicsEngine(object):
+    """Base class of the backends; see the module docstring for the contract."""
+
+    name = None
+
+    def __init__(self, step_size=0.001, gravity=(0.0, 0.0, -9.81)):
+        step_size = float(step_size)
+        if not (math.isfinite(step_size) and step_size > 0):
+            raise ValueError('physics step size must be a positive number of seconds, got %r'
+                             % step_size)
+        self.step_size = step_size
+        self.gravity = check_vector(gravity, 'gravity')
+        self._models = {}
+
+    # ---- model bookkeeping -------------------------------------------------------------
+    def add_model(self, model):
+        if not isinstance(model, Model):
+            raise ModelError('expected a simvid.model.Model, got %r' % (model,))
+        if model.name in self._models:
+            raise ModelError('a model named %r already exists' % model.name)
+        spec = lump_model(model)
+        pose = check_pose(model.pose, 'model %r pose' % model.name)
+        rec = Record(spec, pose)
+        self._add(rec, pose)
+        self._models[model.name] = rec
+        return rec
+
+    def remove_model(self, name):
+        rec = self._get(name)
+        self._remove(rec)
+        del self._models[name]
+
+    def has_model(self, name):
+        return name in self._models
+
+    def model_names(self):
+        return list(self._models)
+
+    def _get(self, name):
+        try:
+            return self._models[name]
+        except KeyError:
+            raise KeyError('no model named %r in the physics engine' % (name,))
+
+    # ---- state -------------------------------------------------------------------------
+    def model_pose(self, name):
+        rec = self._get(name)
+        if rec.static:
+            return rec.pose.copy()
+        return self._body_pose(rec) * rec.com_inv
+
+    def set_model_pose(self, name, pose):
+        rec = self._get(name)
+        pose = check_pose(pose, 'new pose of model %r' % name)
+        if rec.static:
+            rec.pose = pose
+            self._place_static(rec, pose)
+        else:
+            self._set_body_pose(rec, pose * rec.spec.com)
+
+    def model_twist(self, name):
+        rec = self._get(name)
+        if rec.static:
+            return np.zeros(3), np.zeros(3)
+        v_com, w = self._body_twist(rec)
+        body = self._body_pose(rec)
+        origin = (body * rec.com_inv).p
+        return v_com + np.cross(w, origin - body.p), w
+
+    def set_model_twist(self, name, lin, ang):
+        rec = self._get(name)
+        lin = check_vector(lin, 'linear velocity of model %r' % name)
+        ang = check_vector(ang, 'angular velocity of model %r' % name)
+        if rec.static:
+            if np.any(lin) or np.any(ang):
+                log.warning('model %r is static: its twist stays zero', name)
+            return
+        body = self._body_pose(rec)
+        origin = (body * rec.com_inv).p
+        self._set_body_twist(rec, lin + np.cross(ang, body.p - origin), ang)
+
+    def link_poses(self, name):
+        rec = self._get(name)
+        root = self.model_pose(name)
+        return dict((ln, root * off) for ln, off in rec.spec.link_offsets.items())
+
+    def set_gravity(self, g):
+        self.gravity = check_vector(g, 'gravity')
+        self._set_gravity(self.gravity)
+
+    def close(self):
+        pass
+
+    def __repr__(self):
+        return '<%s engine, step %g s, %d models>' % (self.name, self.step_size,
+                                                       len(self._models))
+
+    # ---- what a backend implements --------------------------------------------------------
+    def _add(self, rec, pose):
+        raise NotImplementedError
+
+    def _remove(self, rec):
+        raise NotImplementedError
+
+    def _place_static(self, rec, pose):
+        raise NotImplementedError
+
+    def _body_pose(self, rec):
+        raise NotImplementedError
+
+    def _set_body_pose(self, rec, pose):
+        raise NotImplementedError
+
+    def _body_twist(self, rec):
+        raise NotImplementedError
+
+    def _set_body_twist(self, rec, lin, ang):
+        raise NotImplementedError
+
+    def _set_gravity(self, g):
+        raise NotImplementedError
+
+    def in_contact(self, name):
+        raise NotImplementedError
+
+    def step(self, n=1):
+        raise NotImplementedError

@@ -1,0 +1,246 @@
+"""Bullet backend (pybullet from PyPI), chosen with ``~physics_engine:=bullet``.
+
+Each engine owns one pybullet DIRECT client (no GUI, no shared state between engines).
+Moving bodies are single rigid bodies (``useMaximalCoordinates``) whose base frame is the
+centre of mass with principal axes, mass and principal inertia set explicitly, pybullet's
+default linear/angular damping set to zero, sleeping disabled (ODE and Gazebo do not put
+bodies to sleep either), friction 1, restitution 0. Their shapes form one compound
+(``createCollisionShapeArray``; a mesh there goes through a temporary .obj file holding
+its convex hull). Static models get one fixed body per collision shape; static meshes are
+exact concave triangle meshes. Floating bodies (gravity off) get a force of -m*g at the
+centre of mass before every step.
+
+``in_contact`` runs ``performCollisionDetection`` on the current state once per step
+(only when asked) and counts contact points with ``contactDistance <= 0``: Bullet also
+reports points that are merely close (up to its contact threshold).
+"""
+import os
+import shutil
+import tempfile
+
+import numpy as np
+import pybullet as p
+
+from .base import FRICTION, PhysicsEngine
+from ..model import ModelError
+from ..transforms import Pose
+
+__all__ = ['BulletEngine']
+
+
+def _xyzw(q):
+    return [float(q[0]), float(q[1]), float(q[2]), float(q[3])]
+
+
+class BulletEngine(PhysicsEngine):
+    name = 'bullet'
+
+    def __init__(self, step_size=0.001, gravity=(0.0, 0.0, -9.81)):
+        PhysicsEngine.__init__(self, step_size, gravity)
+        self._c = p.connect(p.DIRECT)
+        if self._c < 0:
+            raise RuntimeError('pybullet: cannot create a DIRECT physics client')
+        c = self._c
+        p.setGravity(*[float(x) for x in self.gravity], physicsClientId=c)
+        p.setTimeStep(self.step_size, physicsClientId=c)
+        p.setPhysicsEngineParameter(fixedTimeStep=self.step_size, numSubSteps=0,
+                                    deterministicOverlappingPairs=1, physicsClientId=c)
+        self._floating = []          # [[body id, force list]]
+        self._contacts_valid = False
+        self._tmpdir = None
+
+    # ---- building ----------------------------------------------------------------------
+    def _hull_obj(self, verts):
+        """Path of a temporary .obj holding the convex hull of ``verts``."""
+        import trimesh
+        if self._tmpdir is None:
+            self._tmpdir = tempfile.mkdtemp(prefix='simvid_bullet_')
+        hull = trimesh.Trimesh(vertices=verts).convex_hull
+        path = os.path.join(self._tmpdir, 'hull%d.obj' % len(os.listdir(self._tmpdir)))
+        hull.export(path)
+        return path
+
+    def _single_shape(self, shape, pose, static):
+        g, c = shape.geometry, self._c
+        kw = dict(collisionFramePosition=[float(x) for x in pose.p],
+                  collisionFrameOrientation=_xyzw(pose.q), physicsClientId=c)
+        if g.kind == 'box':
+            return p.createCollisionShape(p.GEOM_BOX, halfExtents=[float(x) / 2 for x in g.size],
+                                          **kw)
+        if g.kind == 'sphere':
+            return p.createCollisionShape(p.GEOM_SPHERE, radius=g.radius, **kw)
+        if g.kind == 'cylinder':
+            return p.createCollisionShape(p.GEOM_CYLINDER, radius=g.radius, height=g.length,
+                                          **kw)
+        if g.kind == 'plane':
+            n = g.normal / np.linalg.norm(g.normal)
+            return p.createCollisionShape(p.GEOM_PLANE, planeNormal=[float(x) for x in n], **kw)
+        verts, faces = shape.mesh
+        if static:
+            return p.createCollisionShape(p.GEOM_MESH, vertices=verts.tolist(),
+                                          indices=[int(i) for i in faces.reshape(-1)], **kw)
+        return p.createCollisionShape(p.GEOM_MESH, vertices=verts.tolist(), **kw)
+
+    def _compound(self, shapes, poses):
+        types, radii, halves, lengths, files, pos, orn = [], [], [], [], [], [], []
+        for shape, pose in zip(shapes, poses):
+            g = shape.geometry
+            radius, half, length, fname = 0.0, [0.0, 0.0, 0.0], 0.0, ''
+            if g.kind == 'box':
+                types.append(p.GEOM_BOX)
+                half = [float(x) / 2 for x in g.size]
+            elif g.kind == 'sphere':
+                types.append(p.GEOM_SPHERE)
+                radius = g.radius
+            elif g.kind == 'cylinder':
+                types.append(p.GEOM_CYLINDER)
+                radius, length = g.radius, g.length
+            else:
+                types.append(p.GEOM_MESH)
+                fname = self._hull_obj(shape.mesh[0])
+            radii.append(radius)
+            halves.append(half)
+            lengths.append(length)
+            files.append(fname)
+            pos.append([float(x) for x in pose.p])
+            orn.append(_xyzw(pose.q))
+        return p.createCollisionShapeArray(
+            shapeTypes=types, radii=radii, halfExtents=halves, lengths=lengths,
+            fileNames=files, meshScales=[[1.0, 1.0, 1.0]] * len(types),
+            collisionFramePositions=pos, collisionFrameOrientations=orn,
+            physicsClientId=self._c)
+
+    def _dynamics(self, bid, **kw):
+        p.changeDynamics(bid, -1, lateralFriction=FRICTION, restitution=0.0,
+                         spinningFriction=0.0, rollingFriction=0.0,
+                         physicsClientId=self._c, **kw)
+
+    def _add(self, rec, pose):
+        spec, c = rec.spec, self._c
+        bodies = []
+        try:
+            if spec.static:
+                for shape in spec.shapes:
+                    sid = self._single_shape(shape, Pose(), True)
+                    if sid < 0:
+                        raise ModelError('model %r: Bullet refused collision %r of link %r'
+                                         % (rec.name, shape.name, shape.link))
+                    bid = p.createMultiBody(0.0, sid, physicsClientId=c)
+                    self._dynamics(bid)
+                    bodies.append((bid, shape))
+                rec.native = {'bodies': bodies}
+                self._place_static(rec, pose)
+            else:
+                offs = [rec.com_inv * s.pose for s in spec.shapes]
+                if not spec.shapes:
+                    sid = -1
+                elif len(spec.shapes) == 1:
+                    sid = self._single_shape(spec.shapes[0], offs[0], False)
+                else:
+                    sid = self._compound(spec.shapes, offs)
+                if spec.shapes and sid < 0:
+                    raise ModelError('model %r: Bullet refused its collision shapes' % rec.name)
+                bpose = pose * spec.com
+                bid = p.createMultiBody(spec.mass, sid, -1, [float(x) for x in bpose.p],
+                                        _xyzw(bpose.q), useMaximalCoordinates=True,
+                                        physicsClientId=c)
+                self._dynamics(bid, mass=spec.mass,
+                               localInertiaDiagonal=[float(x) for x in spec.inertia],
+                               linearDamping=0.0, angularDamping=0.0,
+                               activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+                bodies.append((bid, None))
+                rec.native = {'bodies': bodies, 'body': bid}
+                if not spec.gravity:
+                    self._floating.append([bid, rec])
+        except Exception:
+            for bid, _ in bodies:
+                p.removeBody(bid, physicsClientId=c)
+            raise
+        self._contacts_valid = False
+
+    def _remove(self, rec):
+        for bid, _ in rec.native['bodies']:
+            p.removeBody(bid, physicsClientId=self._c)
+        self._floating = [f for f in self._floating if f[1] is not rec]
+        rec.native = None
+        self._contacts_valid = False
+
+    def _place_static(self, rec, pose):
+        for bid, shape in rec.native['bodies']:
+            wp = pose * shape.pose
+            p.resetBasePositionAndOrientation(bid, [float(x) for x in wp.p], _xyzw(wp.q),
+                                              physicsClientId=self._c)
+        self._contacts_valid = False
+
+    # ---- state -------------------------------------------------------------------------
+    def _body_pose(self, rec):
+        pos, orn = p.getBasePositionAndOrientation(rec.native['body'], physicsClientId=self._c)
+        return Pose(pos, orn, normalize=False)
+
+    def _set_body_pose(self, rec, pose):
+        bid, c = rec.native['body'], self._c
+        lin, ang = p.getBaseVelocity(bid, physicsClientId=c)
+        p.resetBasePositionAndOrientation(bid, [float(x) for x in pose.p], _xyzw(pose.q),
+                                          physicsClientId=c)
+        p.resetBaseVelocity(bid, lin, ang, physicsClientId=c)
+        self._contacts_valid = False
+
+    def _body_twist(self, rec):
+        lin, ang = p.getBaseVelocity(rec.native['body'], physicsClientId=self._c)
+        return np.array(lin), np.array(ang)
+
+    def _set_body_twist(self, rec, lin, ang):
+        p.resetBaseVelocity(rec.native['body'], [float(x) for x in lin],
+                            [float(x) for x in ang], physicsClientId=self._c)
+
+    def _set_gravity(self, g):
+        p.setGravity(*[float(x) for x in g], physicsClientId=self._c)
+
+    # ---- stepping ------------------------------------------------------------------------
+    def step(self, n=1):
+        c = self._c
+        step = p.stepSimulation
+        if self._floating:
+            g = self.gravity
+            forces = [(bid, [float(-rec.spec.mass * x) for x in g])
+                      for bid, rec in self._floating]
+            getpose, force, frame = p.getBasePositionAndOrientation, p.applyExternalForce, \
+                p.WORLD_FRAME
+            for _ in range(int(n)):
+                for bid, f in forces:
+                    force(bid, -1, f, getpose(bid, physicsClientId=c)[0], frame,
+                          physicsClientId=c)
+                step(physicsClientId=c)
+        else:
+            for _ in range(int(n)):
+                step(physicsClientId=c)
+        self._contacts_valid = False
+
+    def in_contact(self, name):
+        rec = self._get(name)
+        c = self._c
+        if not self._contacts_valid:
+            p.performCollisionDetection(physicsClientId=c)
+            self._contacts_valid = True
+        for bid, _ in rec.native['bodies']:
+            for pt in p.getContactPoints(bodyA=bid, physicsClientId=c):
+                if pt[8] <= 0.0:
+                    return True
+        return False
+
+    def close(self):
+        if self._c is not None and self._c >= 0:
+            try:
+                p.disconnect(physicsClientId=self._c)
+            except p.error:
+                pass
+            self._c = None
+        if self._tmpdir:
+            shutil.rmtree(self._tmpdir, ignore_errors=True)
+            self._tmpdir = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass

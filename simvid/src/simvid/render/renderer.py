@@ -1,0 +1,623 @@
+"""Scene of model visuals drawn with the shared OSMesa context (fixed-function GL + VBOs).
+
+Threading: every public method may be called from any thread; all GL work happens under
+the context lock. Images handed in by ROS callbacks (``set_dynamic_texture``) are uploaded
+by the next ``render()``.
+"""
+import ctypes
+import logging
+import math
+import threading
+
+import numpy as np
+
+from ..transforms import Pose
+from . import shapes
+from .context import get_context, RenderError, linearize_depth
+
+__all__ = ['CameraView', 'Renderer', 'DEFAULT_SUN']
+
+log = logging.getLogger('simvid.render')
+
+# Gazebo's default sun: a directional light from above, slightly from the side.
+DEFAULT_SUN = dict(direction=(-0.5, 0.1, -0.9), diffuse=(0.8, 0.8, 0.8, 1.0),
+                   specular=(0.2, 0.2, 0.2, 1.0))
+DEFAULT_AMBIENT = (0.4, 0.4, 0.4)
+DEFAULT_BACKGROUND = (0.7, 0.7, 0.75)
+
+# GL eye frame (x right, y up, looking along -z) from the camera link frame (Gazebo: the
+# camera looks along the link's +x, z is up in the image).
+EYE_FROM_LINK = np.array([[0.0, -1.0, 0.0, 0.0],
+                          [0.0, 0.0, 1.0, 0.0],
+                          [-1.0, 0.0, 0.0, 0.0],
+                          [0.0, 0.0, 0.0, 1.0]])
+
+
+# Per-pixel version of the fixed-function lighting (GLSL 1.20, compatibility profile): the
+# same light/material state (glLight, glLightModel, glColor), but evaluated per fragment so a
+# point light near a big face and the two sides of open meshes are lit right.
+_VERT = """
+#version 120
+varying vec3 vN;
+varying vec3 vP;
+varying vec2 vT;
+void main() {
+    vec4 p = gl_ModelViewMatrix * gl_Vertex;
+    vP = p.xyz;
+    vN = gl_NormalMatrix * gl_Normal;
+    vT = gl_MultiTexCoord0.xy;
+    gl_FrontColor = gl_Color;
+    gl_Position = gl_ProjectionMatrix * p;
+}
+"""
+_FRAG = """
+#version 120
+uniform int nLights;
+uniform int lit;
+uniform int textured;
+uniform sampler2D tex;
+varying vec3 vN;
+varying vec3 vP;
+varying vec2 vT;
+void main() {
+    vec4 base = gl_Color;
+    if (textured != 0) base *= texture2D(tex, vT);
+    if (lit == 0) { gl_FragColor = base; return; }
+    vec3 N = normalize(vN);
+    if (!gl_FrontFacing) N = -N;          /* the side we see is the lit side */
+    vec3 V = normalize(-vP);
+    vec3 col = gl_LightModel.ambient.rgb * base.rgb;
+    for (int i = 0; i < 8; i++) {
+        if (i >= nLights) break;
+        vec4 lp = gl_LightSource[i].position;
+        vec3 L;
+        float att = 1.0;
+        if (lp.w == 0.0) {
+            L = normalize(lp.xyz);
+        } else {
+            vec3 d = lp.xyz - vP;
+            float dist = length(d);
+            L = d / dist;
+            att = 1.0 / (gl_LightSource[i].constantAttenuation
+                         + gl_LightSource[i].linearAttenuation * dist
+                         + gl_LightSource[i].quadraticAttenuation * dist * dist);
+        }
+        float nd = max(dot(N, L), 0.0);
+        col += att * nd * gl_LightSource[i].diffuse.rgb * base.rgb;
+        if (nd > 0.0) {
+            vec3 H = normalize(L + V);
+            col += att * gl_LightSource[i].specular.rgb * gl_FrontMaterial.specular.rgb
+                   * pow(max(dot(N, H), 0.0), gl_FrontMaterial.shininess);
+        }
+    }
+    gl_FragColor = vec4(col, base.a);
+}
+"""
+
+
+class CameraView(object):
+    """A pinhole camera: image size, horizontal field of view (radians), world pose of the
+    camera link (looking along its +x, z up), clip planes, principal point (pixels, OpenCV
+    convention: pixel centres at integer coordinates; None = image centre (w-1)/2, (h-1)/2),
+    background colour (rgb 0..1; None = the renderer's, see ``Renderer.set_background``).
+    ``fx``/``fy`` override the focal length (pixels) that
+    ``hfov`` gives: f = width / (2 tan(hfov / 2)); fy = fx (square pixels)."""
+
+    def __init__(self, width, height, hfov=math.radians(60), pose=None, near=0.02, far=100.0,
+                 cx=None, cy=None, background=None, fx=None, fy=None):
+        self.width, self.height = int(width), int(height)
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError('camera image size must be positive, got %dx%d'
+                             % (self.width, self.height))
+        self.hfov = float(hfov)
+        if fx is None and not (0.0 < self.hfov < math.pi):
+            raise ValueError('hfov must be between 0 and pi radians, got %r' % hfov)
+        if not (0 < near < far):
+            raise ValueError('clip planes must satisfy 0 < near < far, got %r, %r' % (near, far))
+        self.pose = pose if pose is not None else Pose()
+        self.near, self.far = float(near), float(far)
+        self.cx = (self.width - 1) / 2.0 if cx is None else float(cx)
+        self.cy = (self.height - 1) / 2.0 if cy is None else float(cy)
+        self.fx = float(fx) if fx is not None else self.width / (2.0 * math.tan(self.hfov / 2.0))
+        self.fy = float(fy) if fy is not None else self.fx
+        self.background = tuple(background) if background is not None else None
+
+    def K(self):
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def projection_matrix(self, flip_y=False):
+        """4x4 OpenGL projection (row-major math) built from K, so a point in the camera
+        frame lands on the pixel K predicts (OpenCV pixel centres: GL pixel i spans
+        [i, i+1], its centre i + 0.5 is OpenCV's u = i). flip_y: row 0 of the GL
+        framebuffer becomes the image's top row."""
+        w, h, n, f = self.width, self.height, self.near, self.far
+        cxg, cyg = self.cx + 0.5, self.cy + 0.5
+        P = np.array([
+            [2.0 * self.fx / w, 0.0, 1.0 - 2.0 * cxg / w, 0.0],
+            [0.0, 2.0 * self.fy / h, 2.0 * cyg / h - 1.0, 0.0],
+            [0.0, 0.0, -(f + n) / (f - n), -2.0 * f * n / (f - n)],
+            [0.0, 0.0, -1.0, 0.0]])
+        if flip_y:
+            P[1] = -P[1]
+        return P
+
+    def view_matrix(self):
+        """4x4 world -> GL eye transform."""
+        return EYE_FROM_LINK.dot(np.linalg.inv(self.pose.matrix()))
+
+    def project(self, point_world):
+        """Pixel (u, v) (OpenCV convention) and depth of a world point."""
+        pc = np.linalg.inv(self.pose.matrix()).dot(np.r_[np.asarray(point_world, float), 1.0])
+        # camera link: x forward, y left, z up -> optical: x right, y down, z forward
+        xo, yo, zo = -pc[1], -pc[2], pc[0]
+        return (self.fx * xo / zo + self.cx, self.fy * yo / zo + self.cy), zo
+
+
+class _Item(object):
+    """One visual of one link, with its GL buffer (created lazily in the render thread)."""
+
+    def __init__(self, model, link, visual, mesh, rgba, texture_key, lit):
+        self.model, self.link, self.visual = model, link, visual
+        self.mesh = mesh
+        self.origin = visual.origin.matrix()
+        self.rgba = tuple(float(c) for c in rgba)
+        self.texture_key = texture_key
+        self.lit = lit
+        self.vbo = None
+        self.world = np.eye(4)
+        self.transparent = self.rgba[3] < 0.999
+
+
+class _DynTex(object):
+    def __init__(self):
+        self.pending = None      # new image to upload (or False = clear)
+        self.face = 'front'
+        self.tex = None          # GL texture id
+        self.size = None
+        self.active = False
+
+
+class Renderer(object):
+    """Visuals of the world's models, drawn into offscreen images (see module doc)."""
+
+    def __init__(self, context=None):
+        self.ctx = context or get_context()
+        self._items = {}               # model name -> [_Item]
+        self._link_poses = {}          # model name -> {link: 4x4}
+        self._images = {}              # texture path -> RGBA array (loaded once)
+        self._gl_textures = {}         # texture key -> GL id
+        self._dyn = {}                 # (model, link) -> _DynTex
+        self._lights = None
+        self._ambient = DEFAULT_AMBIENT
+        self._lock = threading.RLock()
+        self.background = DEFAULT_BACKGROUND
+        self._trash = []               # GL buffers to delete in the render thread
+        self._prog = None              # (program, uniform locations)
+        self.frames = 0
+
+    # -- scene ------------------------------------------------------------------------------
+    def add_model(self, model):
+        """Create draw items for every visual of every link of ``model`` (a
+        simvid.model.Model). A visual whose mesh or texture cannot be read is logged once
+        and skipped (mesh) or drawn in its colour (texture); the rest of the model shows."""
+        items = []
+        for link_name, link in model.links.items():
+            for vis in link.visuals:
+                try:
+                    mesh = shapes.geometry_mesh(vis.geometry, model.resolve_path)
+                except shapes.MeshLoadError as e:
+                    log.error('model %s link %s: visual not shown: %s', model.name, link_name, e)
+                    continue
+                mat = vis.material
+                tex_key = None
+                if mat.texture:
+                    path = model.resolve_path(mat.texture)
+                    if self._load_image(path) is not None:
+                        tex_key = path
+                rgba = mat.rgba
+                if tex_key is not None:
+                    rgba = (1.0, 1.0, 1.0, float(mat.rgba[3]))
+                it = _Item(model.name, link_name, vis, mesh, rgba, tex_key,
+                           getattr(mat, 'lit', True))
+                it.own_parts = _uses_file_materials(mat) and any(
+                    p[2] is not None or p[3] is not None for p in mesh.parts)
+                if it.own_parts:
+                    it.part_keys = []
+                    for i, (_, _, _, img) in enumerate(mesh.parts):
+                        key = None
+                        if img is not None:
+                            key = 'mesh:%s:%s:%d' % (model.name, id(mesh), i)
+                            self._images[key] = _rgba(img)
+                        it.part_keys.append(key)
+                items.append(it)
+        poses = {}
+        try:
+            for ln, p in model.link_poses().items():
+                poses[ln] = (model.pose * p).matrix()
+        except Exception as e:  # noqa: BLE001 - a broken joint tree: draw at the model pose
+            log.warning('model %s: link poses unknown (%s); drawing links at the model pose',
+                        model.name, e)
+            poses = {ln: model.pose.matrix() for ln in model.links}
+        with self._lock:
+            if model.name in self._items:
+                self._drop(model.name)
+            self._items[model.name] = items
+            self._link_poses[model.name] = poses
+            self._update_world(model.name)
+        return len(items)
+
+    def remove_model(self, name):
+        with self._lock:
+            self._drop(name)
+            self._link_poses.pop(name, None)
+            for key in [k for k in self._dyn if k[0] == name]:
+                d = self._dyn.pop(key)
+                if d.tex is not None:
+                    self._trash.append(('tex', d.tex))
+
+    def _drop(self, name):
+        for it in self._items.pop(name, []):
+            if it.vbo is not None:
+                self._trash.append(('buf', it.vbo))
+                it.vbo = None
+
+    def model_names(self):
+        with self._lock:
+            return list(self._items)
+
+    def set_link_poses(self, model_name, poses):
+        """World poses of links: {link name: Pose (or 4x4 matrix)}. Links not named keep
+        their last pose."""
+        with self._lock:
+            cur = self._link_poses.setdefault(model_name, {})
+            for ln, p in poses.items():
+                cur[ln] = p.matrix() if isinstance(p, Pose) else np.asarray(p, float)
+            if model_name in self._items:
+                self._update_world(model_name)
+
+    def _update_world(self, model_name):
+        poses = self._link_poses.get(model_name, {})
+        for it in self._items.get(model_name, []):
+            lp = poses.get(it.link)
+            if lp is not None:
+                it.world = lp.dot(it.origin)
+
+    def set_lights(self, lights, ambient=DEFAULT_AMBIENT, default_sun=True):
+        """simvid.model.Light list (up to 8 are used) and the ambient colour (rgb 0..1).
+        With an empty list and ``default_sun`` the Gazebo default sun lights the scene."""
+        with self._lock:
+            self._lights = list(lights or [])
+            self._default_sun = default_sun
+            self._ambient = tuple(float(c) for c in list(ambient)[:3])
+            if len(self._lights) > 8:
+                log.warning('%d lights in the world; the renderer uses the first 8',
+                            len(self._lights))
+
+    def set_background(self, rgb):
+        """Colour (rgb 0..1) where nothing is drawn, for views that name none."""
+        self.background = tuple(float(c) for c in list(rgb)[:3])
+
+    def set_dynamic_texture(self, model_name, link_name, rgb, face='front'):
+        """Show image ``rgb`` (HxWx3 or HxWx4 uint8, row 0 = top) unlit on ``face`` of the
+        first box visual of the link ('front' = '+z'; '+x', '-x', '+y', '-y', '+z', '-z',
+        'all'); a link without a box shows it on its first visual. None = back to the
+        material. The image is copied; the upload happens in the next render."""
+        face = {'front': '+z', 'back': '-z'}.get(face, face)
+        if face not in shapes.BOX_FACES and face != 'all':
+            raise ValueError('unknown face %r (front, back, +x, -x, +y, -y, +z, -z, all)' % face)
+        if rgb is not None:
+            rgb = np.asarray(rgb)
+            if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] not in (3, 4) \
+                    or rgb.shape[0] < 1 or rgb.shape[1] < 1:
+                raise ValueError('dynamic texture must be HxWx3 or HxWx4 uint8, got %s %s'
+                                 % (rgb.dtype, rgb.shape))
+            rgb = np.ascontiguousarray(rgb).copy()
+        with self._lock:
+            d = self._dyn.setdefault((model_name, link_name), _DynTex())
+            d.face = face
+            d.pending = rgb if rgb is not None else False
+
+    # -- textures ---------------------------------------------------------------------------
+    def _load_image(self, path):
+        if path in self._images:
+            return self._images[path]
+        img = None
+        try:
+            import cv2
+            raw = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+            if raw is None:
+                log.error('texture %s cannot be read; using the material colour', path)
+            else:
+                if raw.ndim == 2:
+                    raw = cv2.cvtColor(raw, cv2.COLOR_GRAY2BGRA)
+                elif raw.shape[2] == 3:
+                    raw = cv2.cvtColor(raw, cv2.COLOR_BGR2BGRA)
+                if raw.dtype != np.uint8:
+                    raw = (raw / 257).astype(np.uint8)
+                img = np.ascontiguousarray(cv2.cvtColor(raw, cv2.COLOR_BGRA2RGBA))
+        except Exception as e:  # noqa: BLE001
+            log.error('texture %s cannot be read (%s); using the material colour', path, e)
+        self._images[path] = img
+        return img
+
+    def _gl_texture(self, key):
+        tid = self._gl_textures.get(key)
+        if tid is None:
+            img = self._images.get(key)
+            if img is None:
+                return None
+            tid = _upload_texture(None, img, mipmap=True)
+            self._gl_textures[key] = tid
+        return tid
+
+    # -- drawing ----------------------------------------------------------------------------
+    def render(self, view, depth=False):
+        """Draw the scene as ``view`` sees it. Returns HxWx3 uint8 (row 0 = top), or
+        (rgb, depth) with depth HxW float32 metres along the optical axis, inf where
+        nothing was drawn."""
+        from OpenGL import GL
+        w, h = view.width, view.height
+        with self.ctx, self._lock:
+            self.ctx.target(w, h)
+            self._empty_trash()
+            self._upload_dynamic()
+            bg = view.background if view.background is not None else self.background
+            GL.glClearColor(bg[0], bg[1], bg[2], 1.0)
+            GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
+            GL.glMatrixMode(GL.GL_PROJECTION)
+            GL.glLoadMatrixd(view.projection_matrix(flip_y=True).T.ravel())
+            GL.glMatrixMode(GL.GL_MODELVIEW)
+            V = view.view_matrix()
+            GL.glLoadMatrixd(V.T.ravel())
+            self._setup_state()
+            n_lights = self._setup_lights()
+            self._use_program(n_lights)
+            self._draw_all(V)
+            rgb = np.empty((h, w, 3), np.uint8)
+            self.ctx.read_rgb_raw(w, h, rgb)       # flipped projection: row 0 is the top
+            d = None
+            if depth:
+                d = linearize_depth(self.ctx.read_depth_raw(w, h), view.near, view.far)
+            self.frames += 1
+        return (rgb, d) if depth else rgb
+
+    def _empty_trash(self):
+        from OpenGL import GL
+        for kind, obj in self._trash:
+            try:
+                if kind == 'buf':
+                    GL.glDeleteBuffers(1, [obj])
+                else:
+                    GL.glDeleteTextures([obj])
+            except Exception:  # noqa: BLE001
+                pass
+        self._trash = []
+
+    def _upload_dynamic(self):
+        for d in self._dyn.values():
+            if d.pending is None:
+                continue
+            img, d.pending = d.pending, None
+            if img is False:
+                d.active = False
+                continue
+            size = (img.shape[1], img.shape[0], img.shape[2])
+            d.tex = _upload_texture(d.tex if d.size == size else None, img, mipmap=False,
+                                    replace=d.size == size)
+            d.size = size
+            d.active = True
+
+    def _setup_state(self):
+        from OpenGL import GL
+        GL.glEnable(GL.GL_DEPTH_TEST)
+        GL.glDepthFunc(GL.GL_LEQUAL)
+        GL.glDepthMask(GL.GL_TRUE)
+        GL.glFrontFace(GL.GL_CW)     # the flipped projection mirrors the winding
+        GL.glCullFace(GL.GL_BACK)
+        GL.glShadeModel(GL.GL_SMOOTH)
+        GL.glEnable(GL.GL_COLOR_MATERIAL)
+        GL.glColorMaterial(GL.GL_FRONT_AND_BACK, GL.GL_AMBIENT_AND_DIFFUSE)
+        GL.glMaterialfv(GL.GL_FRONT_AND_BACK, GL.GL_SPECULAR, (0.1, 0.1, 0.1, 1.0))
+        GL.glMaterialf(GL.GL_FRONT_AND_BACK, GL.GL_SHININESS, 20.0)
+        GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_MODULATE)
+        GL.glEnableClientState(GL.GL_VERTEX_ARRAY)
+        GL.glEnableClientState(GL.GL_NORMAL_ARRAY)
+        GL.glEnableClientState(GL.GL_TEXTURE_COORD_ARRAY)
+        GL.glDisable(GL.GL_BLEND)
+
+    def _setup_lights(self):
+        from OpenGL import GL
+        lights = self._lights
+        if not lights and (self._lights is None or getattr(self, '_default_sun', True)):
+            lights = [None]
+        amb = self._ambient
+        GL.glLightModelfv(GL.GL_LIGHT_MODEL_AMBIENT, (amb[0], amb[1], amb[2], 1.0))
+        GL.glLightModeli(GL.GL_LIGHT_MODEL_LOCAL_VIEWER, GL.GL_FALSE)
+        for i in range(8):
+            L = GL.GL_LIGHT0 + i
+            if i >= len(lights):
+                GL.glDisable(L)
+                continue
+            lt = lights[i]
+            GL.glEnable(L)
+            GL.glLightfv(L, GL.GL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
+            if lt is None:
+                d = np.asarray(DEFAULT_SUN['direction'], float)
+                d = d / np.linalg.norm(d)
+                GL.glLightfv(L, GL.GL_DIFFUSE, DEFAULT_SUN['diffuse'])
+                GL.glLightfv(L, GL.GL_SPECULAR, DEFAULT_SUN['specular'])
+                GL.glLightfv(L, GL.GL_POSITION, (-d[0], -d[1], -d[2], 0.0))
+                continue
+            GL.glLightfv(L, GL.GL_DIFFUSE, tuple(float(c) for c in lt.diffuse[:4]))
+            GL.glLightfv(L, GL.GL_SPECULAR, tuple(float(c) for c in lt.specular[:4]))
+            if lt.kind == 'directional':
+                d = lt.pose.rotate(lt.direction)
+                n = np.linalg.norm(d)
+                d = d / n if n > 1e-9 else np.array([0, 0, -1.0])
+                GL.glLightfv(L, GL.GL_POSITION, (-d[0], -d[1], -d[2], 0.0))
+                GL.glLightf(L, GL.GL_SPOT_CUTOFF, 180.0)
+                for a in (GL.GL_CONSTANT_ATTENUATION,):
+                    GL.glLightf(L, a, 1.0)
+                GL.glLightf(L, GL.GL_LINEAR_ATTENUATION, 0.0)
+                GL.glLightf(L, GL.GL_QUADRATIC_ATTENUATION, 0.0)
+            else:   # point (spot drawn as point)
+                p = lt.pose.p
+                GL.glLightfv(L, GL.GL_POSITION, (p[0], p[1], p[2], 1.0))
+                GL.glLightf(L, GL.GL_SPOT_CUTOFF, 180.0)
+                att = list(lt.attenuation) + [1.0, 0.0, 0.0]
+                GL.glLightf(L, GL.GL_CONSTANT_ATTENUATION, max(float(att[0]), 1e-3))
+                GL.glLightf(L, GL.GL_LINEAR_ATTENUATION, float(att[1]))
+                GL.glLightf(L, GL.GL_QUADRATIC_ATTENUATION, float(att[2]))
+        return min(len(lights), 8)
+
+    def _draw_all(self, V):
+        from OpenGL import GL
+        opaque, transparent = [], []
+        for items in self._items.values():
+            for it in items:
+                (transparent if it.transparent else opaque).append(it)
+        dyn_items = {}
+        for key, d in self._dyn.items():
+            if d.active and d.tex is not None:
+                its = self._items.get(key[0], [])
+                target = next((i for i in its if i.link == key[1] and i.mesh.faces), None)
+                if target is None:
+                    target = next((i for i in its if i.link == key[1]), None)
+                if target is not None:
+                    dyn_items[id(target)] = d
+        for it in opaque:
+            self._draw(it, V, dyn_items.get(id(it)))
+        if transparent:
+            GL.glEnable(GL.GL_BLEND)
+            GL.glBlendFunc(GL.GL_SRC_ALPHA, GL.GL_ONE_MINUS_SRC_ALPHA)
+            GL.glDepthMask(GL.GL_FALSE)
+            for it in transparent:
+                self._draw(it, V, dyn_items.get(id(it)))
+            GL.glDepthMask(GL.GL_TRUE)
+            GL.glDisable(GL.GL_BLEND)
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
+        GL.glDisable(GL.GL_TEXTURE_2D)
+        GL.glUseProgram(0)
+
+    def _use_program(self, n_lights):
+        from OpenGL import GL
+        if self._prog is None:
+            prog = getattr(self.ctx, '_simvid_program', None)
+            if prog is None:
+                from OpenGL.GL import shaders
+                try:
+                    vs = shaders.compileShader(_VERT, GL.GL_VERTEX_SHADER)
+                    fs = shaders.compileShader(_FRAG, GL.GL_FRAGMENT_SHADER)
+                    pid = GL.glCreateProgram()
+                    GL.glAttachShader(pid, vs)
+                    GL.glAttachShader(pid, fs)
+                    GL.glLinkProgram(pid)
+                    if GL.glGetProgramiv(pid, GL.GL_LINK_STATUS) != GL.GL_TRUE:
+                        raise RenderError('shader link failed: %s' % GL.glGetProgramInfoLog(pid))
+                except Exception as e:  # noqa: BLE001
+                    raise RenderError('cannot build the lighting shader: %s' % e)
+                loc = {n: GL.glGetUniformLocation(pid, n)
+                       for n in ('nLights', 'lit', 'textured', 'tex')}
+                prog = (pid, loc)
+                self.ctx._simvid_program = prog
+            self._prog = prog
+        pid, loc = self._prog
+        GL.glUseProgram(pid)
+        GL.glUniform1i(loc['nLights'], n_lights)
+        GL.glUniform1i(loc['tex'], 0)
+        self._loc = loc
+        self._state = (None, None)
+
+    def _draw(self, it, V, dyn):
+        from OpenGL import GL
+        if it.vbo is None:
+            data = it.mesh.interleaved()
+            it.vbo = GL.glGenBuffers(1)
+            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, it.vbo)
+            GL.glBufferData(GL.GL_ARRAY_BUFFER, data.nbytes, data, GL.GL_STATIC_DRAW)
+        else:
+            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, it.vbo)
+        GL.glLoadMatrixd(V.dot(it.world).T.ravel())
+        GL.glVertexPointer(3, GL.GL_FLOAT, 32, ctypes.c_void_p(0))
+        GL.glNormalPointer(GL.GL_FLOAT, 32, ctypes.c_void_p(12))
+        GL.glTexCoordPointer(2, GL.GL_FLOAT, 32, ctypes.c_void_p(24))
+        if it.mesh.double_sided:
+            GL.glDisable(GL.GL_CULL_FACE)
+        else:
+            GL.glEnable(GL.GL_CULL_FACE)
+        ranges = [(0, it.mesh.count)]
+        dyn_ranges = []
+        if dyn is not None:
+            if dyn.face == 'all' or not it.mesh.faces:
+                ranges, dyn_ranges = [], [(0, it.mesh.count)]
+            else:
+                ranges = [r for f, r in it.mesh.faces.items() if f != dyn.face]
+                dyn_ranges = [it.mesh.faces[dyn.face]]
+        if it.own_parts and ranges:
+            for (first, count, color, _img), key in zip(it.mesh.parts, it.part_keys):
+                rgba = color if color is not None else it.rgba
+                self._material(key if key is not None else None,
+                               (1, 1, 1, rgba[3]) if key is not None else rgba, it.lit)
+                GL.glDrawArrays(GL.GL_TRIANGLES, first, count)
+        elif ranges:
+            self._material(it.texture_key, it.rgba, it.lit)
+            for first, count in ranges:
+                GL.glDrawArrays(GL.GL_TRIANGLES, first, count)
+        if dyn_ranges:
+            self._material(None, (1.0, 1.0, 1.0, 1.0), False, tid=dyn.tex)
+            for first, count in dyn_ranges:
+                GL.glDrawArrays(GL.GL_TRIANGLES, first, count)
+
+    def _material(self, tex_key, rgba, lit, tid=None):
+        from OpenGL import GL
+        if tid is None and tex_key is not None:
+            tid = self._gl_texture(tex_key)
+        state = (bool(lit), tid is not None)
+        if state != self._state:
+            GL.glUniform1i(self._loc['lit'], int(state[0]))
+            GL.glUniform1i(self._loc['textured'], int(state[1]))
+            self._state = state
+        if tid is not None:
+            GL.glBindTexture(GL.GL_TEXTURE_2D, tid)
+        GL.glColor4f(rgba[0], rgba[1], rgba[2], rgba[3])
+
+
+def _uses_file_materials(mat):
+    """True when a visual names no material of its own (the mesh file's colours apply)."""
+    return (mat.name is None and not mat.texture
+            and np.allclose(mat.rgba, (0.8, 0.8, 0.8, 1.0)))
+
+
+def _rgba(img):
+    img = np.asarray(img, np.uint8)
+    if img.ndim == 2:
+        img = np.repeat(img[:, :, None], 3, axis=2)
+    if img.shape[2] == 3:
+        img = np.concatenate([img, np.full(img.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    return np.ascontiguousarray(img)
+
+
+def _upload_texture(tid, img, mipmap=True, replace=False):
+    """Upload HxWx3/4 uint8 (row 0 = top, at t = 0) into texture ``tid`` (new when None)."""
+    from OpenGL import GL
+    h, w, c = img.shape
+    fmt = GL.GL_RGBA if c == 4 else GL.GL_RGB
+    if tid is None:
+        tid = GL.glGenTextures(1)
+        replace = False
+    GL.glBindTexture(GL.GL_TEXTURE_2D, tid)
+    GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
+    if replace:
+        GL.glTexSubImage2D(GL.GL_TEXTURE_2D, 0, 0, 0, w, h, fmt, GL.GL_UNSIGNED_BYTE, img)
+    else:
+        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, w, h, 0, fmt, GL.GL_UNSIGNED_BYTE, img)
+    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_REPEAT)
+    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_REPEAT)
+    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
+    if mipmap:
+        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER,
+                           GL.GL_LINEAR_MIPMAP_LINEAR)
+    else:
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR)
+    return tid

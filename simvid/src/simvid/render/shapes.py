@@ -1,0 +1,446 @@
+"""Triangle data for the renderer: primitives and meshes (no OpenGL here).
+
+Every shape becomes a ``MeshData``: non-indexed triangles as float32 arrays of positions,
+normals and texture coordinates (3 vertices per triangle), in the visual's frame, with the
+geometry's scale applied. Meshes (OBJ, STL, DAE, PLY ... through trimesh; Collada through
+pycollada with its ``<unit meter>`` and ``<up_axis>``) get consistent winding and normals
+computed from their faces: smooth within a crease angle, flat across sharper edges. A mesh
+that is not closed is marked ``double_sided`` so the renderer draws both sides lit.
+
+Box faces and texture coordinates: a box is six faces in the order of ``BOX_FACES``; the
+image shown on a face (material texture or video texture) has its top edge towards the
+face's "up" axis and is seen unmirrored from outside: ``+z``/``-z`` faces: up = +x;
+``+x``/``-x``/``+y``/``-y`` faces: up = +z. Texture coordinate t = 0 is the image's top row.
+"""
+import logging
+import math
+import os
+
+import numpy as np
+
+__all__ = ['MeshData', 'MeshLoadError', 'BOX_FACES', 'box', 'cylinder', 'sphere', 'plane',
+           'load_mesh', 'crease_normals', 'geometry_mesh']
+
+log = logging.getLogger('simvid.render')
+
+BOX_FACES = ('+x', '-x', '+y', '-y', '+z', '-z')
+_AXES = {'+x': (0, 1.0), '-x': (0, -1.0), '+y': (1, 1.0), '-y': (1, -1.0),
+         '+z': (2, 1.0), '-z': (2, -1.0)}
+
+
+class MeshLoadError(ValueError):
+    """A mesh file that cannot be read; the message names the file and the cause."""
+
+
+class MeshData(object):
+    """Triangles ready for a vertex buffer.
+
+    positions, normals: (n, 3) float32; uvs: (n, 2) float32; n = 3 * triangles.
+    faces: {face name: (first vertex, vertex count)} for boxes, else {}.
+    double_sided: draw without culling and with two-sided lighting.
+    parts: [(first vertex, count, rgba or None, texture image or None)] for meshes
+    whose file brings its own colours/textures (used when the visual has no material).
+    """
+
+    def __init__(self, positions, normals, uvs=None, faces=None, double_sided=False,
+                 parts=None):
+        self.positions = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
+        self.normals = np.ascontiguousarray(normals, np.float32).reshape(-1, 3)
+        n = len(self.positions)
+        if uvs is None:
+            uvs = np.zeros((n, 2), np.float32)
+        self.uvs = np.ascontiguousarray(uvs, np.float32).reshape(-1, 2)
+        if len(self.normals) != n or len(self.uvs) != n or n % 3:
+            raise ValueError('inconsistent mesh arrays: %d positions, %d normals, %d uvs'
+                             % (n, len(self.normals), len(self.uvs)))
+        self.faces = faces or {}
+        self.double_sided = double_sided
+        self.parts = parts or []
+
+    @property
+    def count(self):
+        return len(self.positions)
+
+    def interleaved(self):
+        """(n, 8) float32: x y z nx ny nz s t."""
+        return np.ascontiguousarray(np.hstack([self.positions, self.normals, self.uvs]),
+                                    np.float32)
+
+    def bounds(self):
+        if not self.count:
+            return np.zeros(3), np.zeros(3)
+        return self.positions.min(axis=0), self.positions.max(axis=0)
+
+
+def _face_frame(face):
+    axis, sign = _AXES[face]
+    n = np.zeros(3)
+    n[axis] = sign
+    up = np.array([1.0, 0, 0]) if axis == 2 else np.array([0, 0, 1.0])
+    right = np.cross(up, n)
+    return n, up, right
+
+
+def box(size):
+    """Box centred at the origin with edge lengths ``size`` (x, y, z)."""
+    h = np.asarray(size, float) / 2.0
+    pos, nor, uv, faces = [], [], [], {}
+    for face in BOX_FACES:
+        n, up, right = _face_frame(face)
+        c = n * h
+        r = right * h
+        u = up * h
+        # corners: bottom-left, bottom-right, top-right, top-left (seen from outside)
+        bl, br, tr, tl = c - r - u, c + r - u, c + r + u, c - r + u
+        quad = [bl, br, tr, bl, tr, tl]
+        quv = [(0, 1), (1, 1), (1, 0), (0, 1), (1, 0), (0, 0)]
+        faces[face] = (len(pos), 6)
+        pos.extend(quad)
+        nor.extend([n] * 6)
+        uv.extend(quv)
+    return MeshData(pos, nor, uv, faces=faces)
+
+
+def cylinder(radius, length, segments=32):
+    """Cylinder along z centred at the origin: smooth side, flat caps."""
+    a = np.linspace(0.0, 2 * math.pi, segments + 1)
+    ca, sa = np.cos(a), np.sin(a)
+    hz = length / 2.0
+    pos, nor, uv = [], [], []
+    for i in range(segments):
+        j = i + 1
+        p0 = (radius * ca[i], radius * sa[i], -hz)
+        p1 = (radius * ca[j], radius * sa[j], -hz)
+        p2 = (radius * ca[j], radius * sa[j], hz)
+        p3 = (radius * ca[i], radius * sa[i], hz)
+        n0 = (ca[i], sa[i], 0.0)
+        n1 = (ca[j], sa[j], 0.0)
+        s0, s1 = float(i) / segments, float(j) / segments
+        pos += [p0, p1, p2, p0, p2, p3]
+        nor += [n0, n1, n1, n0, n1, n0]
+        uv += [(s0, 1), (s1, 1), (s1, 0), (s0, 1), (s1, 0), (s0, 0)]
+        # caps (counter-clockwise seen from outside)
+        pos += [(0, 0, hz), p3, p2]
+        nor += [(0, 0, 1)] * 3
+        uv += [(0.5, 0.5), (0.5 + ca[i] / 2, 0.5 - sa[i] / 2), (0.5 + ca[j] / 2, 0.5 - sa[j] / 2)]
+        pos += [(0, 0, -hz), p1, p0]
+        nor += [(0, 0, -1)] * 3
+        uv += [(0.5, 0.5), (0.5 + ca[j] / 2, 0.5 + sa[j] / 2), (0.5 + ca[i] / 2, 0.5 + sa[i] / 2)]
+    return MeshData(pos, nor, uv)
+
+
+def sphere(radius, slices=32, stacks=16):
+    """UV sphere centred at the origin."""
+    th = np.linspace(0.0, math.pi, stacks + 1)          # from +z down
+    ph = np.linspace(0.0, 2 * math.pi, slices + 1)
+    T, P = np.meshgrid(th, ph, indexing='ij')
+    n = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1)
+    st = np.stack([P / (2 * math.pi), T / math.pi], axis=-1)
+    tri = []
+    for i in range(stacks):
+        for j in range(slices):
+            a, b, c, d = (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)
+            if i != 0:
+                tri.append((a, b, d))
+            if i != stacks - 1:
+                tri.append((d, b, c))
+    idx = np.array(tri).reshape(-1, 2)
+    nn = n[idx[:, 0], idx[:, 1]]
+    return MeshData(nn * radius, nn, st[idx[:, 0], idx[:, 1]])
+
+
+def plane(normal=(0, 0, 1), size=(1.0, 1.0)):
+    """A double-sided rectangle through the origin, perpendicular to ``normal``."""
+    n = np.asarray(normal, float)
+    nl = np.linalg.norm(n)
+    n = n / nl if nl > 1e-9 else np.array([0, 0, 1.0])
+    ref = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    up = ref - n * n.dot(ref)
+    up /= np.linalg.norm(up)
+    right = np.cross(up, n)
+    sx, sy = (list(size) + [1.0, 1.0])[:2]
+    if sx <= 0 or sy <= 0:
+        sx, sy = 1.0, 1.0
+    r, u = right * sy / 2.0, up * sx / 2.0
+    bl, br, tr, tl = -r - u, r - u, r + u, -r + u
+    pos = [bl, br, tr, bl, tr, tl]
+    uv = [(0, 1), (1, 1), (1, 0), (0, 1), (1, 0), (0, 0)]
+    return MeshData(pos, [n] * 6, uv, double_sided=True)
+
+
+def crease_normals(vertices, faces, angle_deg=40.0):
+    """Per-corner normals ((m*3, 3) float) of triangles ``faces`` over ``vertices``.
+
+    Each corner gets the angle-weighted mean normal of the triangles around its vertex
+    (vertices merged by position) whose normal is within ``angle_deg`` of its own
+    triangle's: smooth on curved surfaces, flat across sharp edges. Degenerate triangles get
+    their neighbours' normal or +z.
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    m = len(f)
+    if m == 0:
+        return np.zeros((0, 3))
+    tri = v[f]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)
+    unit = np.zeros_like(cross)
+    ok = area2 > 1e-20
+    unit[ok] = cross[ok] / area2[ok, None]
+    vid, _ = _merge_ids(v)                        # merge vertices by position
+    corner_v = vid[f].reshape(-1)
+    corner_f = np.repeat(np.arange(m), 3)
+    order = np.argsort(corner_v, kind='stable')
+    sv = corner_v[order]
+    starts = np.flatnonzero(np.r_[True, sv[1:] != sv[:-1]])
+    counts = np.diff(np.r_[starts, len(sv)])
+    k = np.repeat(counts, counts)                 # group size of each sorted corner
+    gstart = np.repeat(starts, counts)            # group start of each sorted corner
+    pi = np.repeat(np.arange(len(sv)), k)         # sorted corner index, one row per pair
+    offs = np.arange(len(pi)) - np.repeat(np.cumsum(k) - k, k)
+    pj = np.repeat(gstart, k) + offs
+    fi = corner_f[order][pi]
+    fj = corner_f[order][pj]
+    cos_lim = math.cos(math.radians(angle_deg))
+    dots = np.einsum('ij,ij->i', unit[fi], unit[fj])
+    keep = (dots >= cos_lim) | (fi == fj)
+    # weight: the angle of triangle fj at the shared vertex (symmetric on regular meshes)
+    cj = order[pj[keep]] % 3                      # corner slot of the partner in its face
+    e1 = tri[fj[keep], (cj + 1) % 3] - tri[fj[keep], cj]
+    e2 = tri[fj[keep], (cj + 2) % 3] - tri[fj[keep], cj]
+    n1 = np.linalg.norm(e1, axis=1)
+    n2 = np.linalg.norm(e2, axis=1)
+    with np.errstate(all='ignore'):
+        ang = np.arccos(np.clip(np.einsum('ij,ij->i', e1, e2) / (n1 * n2), -1.0, 1.0))
+    ang = np.nan_to_num(ang)
+    acc = np.zeros((len(sv), 3))
+    w = unit[fj[keep]] * ang[:, None]
+    for c in range(3):
+        acc[:, c] = np.bincount(pi[keep], weights=w[:, c], minlength=len(sv))
+    out = np.empty_like(acc)
+    out[order] = acc
+    ln = np.linalg.norm(out, axis=1)
+    bad = ln < 1e-20
+    out[~bad] /= ln[~bad, None]
+    out[bad] = np.repeat(unit, 3, axis=0)[bad]
+    still = np.linalg.norm(out, axis=1) < 0.5
+    out[still] = (0.0, 0.0, 1.0)
+    return out
+
+
+def _collada_fix(path):
+    """(scale, 3x3 rotation) that Collada's <unit meter> and <up_axis> ask for."""
+    try:
+        import collada
+        doc = collada.Collada(path, ignore=[collada.DaeUnsupportedError,
+                                            collada.DaeBrokenRefError])
+        unit = doc.assetInfo.unitmeter or 1.0
+        up = str(doc.assetInfo.upaxis or 'Z_UP')
+    except Exception as e:  # noqa: BLE001 - pycollada raises many kinds
+        log.warning('cannot read Collada asset info of %s (%s); assuming metres, Z_UP', path, e)
+        return 1.0, np.eye(3)
+    if up.endswith('Y_UP'):
+        rot = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])      # y up -> z up
+    elif up.endswith('X_UP'):
+        rot = np.array([[0, 0, -1.0], [0, 1, 0], [1, 0, 0]])      # x up -> z up
+    else:
+        rot = np.eye(3)
+    return float(unit), rot
+
+
+def _image_of(visual):
+    """RGBA uint8 image of a trimesh TextureVisuals' material, or None."""
+    mat = getattr(visual, 'material', None)
+    img = None
+    for attr in ('image', 'baseColorTexture'):
+        img = getattr(mat, attr, None)
+        if img is not None:
+            break
+    if img is None:
+        return None
+    try:
+        return np.asarray(img.convert('RGBA'))
+    except Exception:  # noqa: BLE001
+        return None
+
+
+def _color_of(visual):
+    mat = getattr(visual, 'material', None)
+    for attr in ('main_color', 'baseColorFactor', 'diffuse'):
+        c = getattr(mat, attr, None)
+        if c is not None:
+            c = np.asarray(c, float).reshape(-1)
+            if c.size >= 3:
+                if c.max() > 1.0:
+                    c = c / 255.0
+                return tuple(list(c[:3]) + [c[3] if c.size > 3 else 1.0])
+    if getattr(visual, 'kind', None) in ('face', 'vertex'):
+        try:
+            c = np.asarray(visual.main_color, float) / 255.0
+            return tuple(c[:4])
+        except Exception:  # noqa: BLE001
+            return None
+    return None
+
+
+def _merge_ids(v):
+    scale = max(float(np.abs(v).max()) if len(v) else 1.0, 1e-9)
+    key = np.round(v / (scale * 1e-7)).astype(np.int64)
+    uniq, vid = np.unique(key, axis=0, return_inverse=True)
+    return vid.reshape(-1), len(uniq)
+
+
+def _fix_winding(v, f):
+    """(faces with consistent winding, outward where a part is closed; all parts closed?).
+
+    Vertices are merged by position for the analysis only (texture coordinates stay with
+    their corners). Faces sharing an edge (exactly two per edge) must run the edge in
+    opposite directions; a breadth-first walk flips the ones that do not. A closed part
+    whose signed volume is negative is turned inside out.
+    """
+    from collections import deque
+    f = np.asarray(f, np.int64)
+    m = len(f)
+    if m == 0:
+        return f, False
+    vid, _ = _merge_ids(v)
+    fm = vid[f]
+    a = fm.reshape(-1)
+    b = np.roll(fm, -1, axis=1).reshape(-1)            # directed edges a -> b per corner
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * (int(fm.max()) + 1) + hi
+    order = np.argsort(key, kind='stable')
+    ks = key[order]
+    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    counts = np.diff(np.r_[starts, len(ks)])
+    degenerate = a == b
+    edge_face = np.repeat(np.arange(m), 3)
+    # neighbours across manifold edges (exactly two faces), with "same direction" flags
+    two = starts[counts == 2]
+    e1, e2 = order[two], order[two + 1]
+    keep = ~(degenerate[e1] | degenerate[e2])
+    e1, e2 = e1[keep], e2[keep]
+    f1, f2 = edge_face[e1], edge_face[e2]
+    same = a[e1] == a[e2]                              # same direction: winding disagrees
+    adj = [[] for _ in range(m)]
+    for x, y, sd in zip(f1.tolist(), f2.tolist(), same.tolist()):
+        if x != y:
+            adj[x].append((y, sd))
+            adj[y].append((x, sd))
+    open_edge = np.zeros(m, bool)
+    bad = starts[counts != 2]
+    for s0, c in zip(bad.tolist(), counts[counts != 2].tolist()):
+        open_edge[edge_face[order[s0:s0 + c]]] = True
+    flip = np.zeros(m, bool)
+    seen = np.zeros(m, bool)
+    tri = np.asarray(v, float)[f]
+    all_closed = True
+    for s0 in range(m):
+        if seen[s0]:
+            continue
+        comp = [s0]
+        seen[s0] = True
+        q = deque([s0])
+        while q:
+            x = q.popleft()
+            for y, sd in adj[x]:
+                if not seen[y]:
+                    seen[y] = True
+                    flip[y] = flip[x] ^ sd
+                    comp.append(y)
+                    q.append(y)
+        comp = np.array(comp)
+        if open_edge[comp].any():
+            all_closed = False
+            continue
+        t = tri[comp]
+        vol = np.einsum('ij,ij->i', t[:, 0], np.cross(t[:, 1], t[:, 2]))
+        vol = np.where(flip[comp], -vol, vol).sum()
+        if vol < 0:
+            flip[comp] = ~flip[comp]
+    out = f.copy()
+    out[flip] = out[flip][:, ::-1]
+    return out, all_closed
+
+
+def load_mesh(path, scale=(1.0, 1.0, 1.0), crease_deg=40.0):
+    """Read a mesh file into MeshData (see module doc). Raises MeshLoadError."""
+    if not path or not os.path.isfile(path):
+        raise MeshLoadError('mesh file %r not found' % path)
+    try:
+        import trimesh
+    except ImportError as e:  # pragma: no cover - trimesh is in tools/requirements.txt
+        raise MeshLoadError('trimesh is not installed: %s' % e)
+    try:
+        scene = trimesh.load(path, force='scene', process=False)
+    except Exception as e:  # noqa: BLE001 - loaders raise many kinds
+        raise MeshLoadError('cannot read mesh %s: %s' % (path, e))
+    unit, rot = 1.0, np.eye(3)
+    if path.lower().endswith('.dae'):
+        unit, rot = _collada_fix(path)
+    xf = rot * unit
+    xf = np.asarray(scale, float).reshape(3, 1) * xf   # scale after unit/up fix (model frame)
+    pos, nor, uvs, parts = [], [], [], []
+    first = 0
+    double = False
+    geoms = []
+    try:
+        for node in scene.graph.nodes_geometry:
+            T, gname = scene.graph[node]
+            g = scene.geometry.get(gname)
+            if g is not None and hasattr(g, 'faces') and len(g.faces):
+                geoms.append((T, g))
+    except Exception as e:  # noqa: BLE001
+        raise MeshLoadError('cannot read mesh %s: %s' % (path, e))
+    if not geoms:
+        raise MeshLoadError('mesh %s has no triangles' % path)
+    for T, g in geoms:
+        g = g.copy()
+        try:
+            g.apply_transform(T)
+        except Exception:  # noqa: BLE001
+            pass
+        v = np.asarray(g.vertices, float).dot(xf.T)
+        f = np.asarray(g.faces, np.int64)
+        if np.linalg.det(xf) < 0:          # mirrored by a negative scale: keep winding outward
+            f = f[:, ::-1]
+        good = np.all(np.isfinite(v), axis=1)
+        if not good.all():
+            f = f[np.all(good[f], axis=1)]
+        f, watertight = _fix_winding(v, f)
+        double = double or not watertight
+        corners = f.reshape(-1)
+        pos.append(v[corners])
+        nor.append(crease_normals(v, f, crease_deg))
+        uv = None
+        visual = getattr(g, 'visual', None)
+        img = None
+        if visual is not None and getattr(visual, 'kind', None) == 'texture':
+            raw_uv = getattr(visual, 'uv', None)
+            if raw_uv is not None and len(raw_uv) == len(v):
+                uv = np.asarray(raw_uv, float)[corners].copy()
+                uv[:, 1] = 1.0 - uv[:, 1]      # file uv: v=0 at the bottom; ours: t=0 at top
+                img = _image_of(visual)
+        uvs.append(uv if uv is not None else np.zeros((len(corners), 2)))
+        parts.append((first, len(corners), _color_of(visual) if visual is not None else None,
+                      img))
+        first += len(corners)
+    return MeshData(np.vstack(pos), np.vstack(nor), np.vstack(uvs), double_sided=double,
+                    parts=parts)
+
+
+def geometry_mesh(geometry, resolve_path=None):
+    """MeshData of a ``simvid.model.Geometry``."""
+    k = geometry.kind
+    if k == 'box':
+        return box(geometry.size)
+    if k == 'cylinder':
+        return cylinder(geometry.radius, geometry.length)
+    if k == 'sphere':
+        return sphere(geometry.radius)
+    if k == 'plane':
+        return plane(geometry.normal, geometry.size[:2])
+    if k == 'mesh':
+        path = resolve_path(geometry.filename) if resolve_path else geometry.filename
+        return load_mesh(path, geometry.scale)
+    raise MeshLoadError('unknown geometry kind %r' % k)

@@ -244,7 +244,7 @@ class VncClient(object):
         n = self._lib.WaitForMessage(c, int(timeout * 1e6))
         if n < 0:
             self.close()
-            raise VncConnectionLost('VNC server %s:%d: %s' % (
+            raise VncConnectionLost('VNC server %s:%d went away (%s)' % (
                 self.host, self.port, _describe(L.recorded(), 'connection lost')))
         if n == 0:
             return False
@@ -252,7 +252,7 @@ class VncClient(object):
             ok = self._lib.HandleRFBServerMessage(c)
         if not ok:
             self.close()
-            raise VncConnectionLost('VNC server %s:%d: %s' % (
+            raise VncConnectionLost('VNC server %s:%d went away (%s)' % (
                 self.host, self.port, _describe(L.recorded(), 'connection closed')))
         return True
 
@@ -367,7 +367,7 @@ class VncReceiver(threading.Thread):
             except VncConnectionLost as e:
                 down_since = time.monotonic()
                 self.outages += 1
-                self._warn('%s: VNC server went away; reconnecting with back-off up to '
-                           '%.0f s' % (e, self.backoff[1]))
+                self._warn('%s; reconnecting with back-off up to %.0f s (logged once '
+                           'until it is back)' % (e, self.backoff[1]))
                 first = False
         self.client.close()

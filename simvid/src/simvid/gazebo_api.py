@@ -72,6 +72,7 @@ class GazeboRosApi(object):
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
         self._get_seq = 0
+        self._last_tf_stamp = None
         self._static_tf = {}
         self.clock_pub = rospy.Publisher('/clock', Clock, queue_size=10)
         self.states_pub = rospy.Publisher('/gazebo/model_states', ModelStates, queue_size=1)
@@ -253,7 +254,8 @@ class GazeboRosApi(object):
         self.clock_pub.publish(Clock(stamp))
         if self.states_pub.get_num_connections():
             self.states_pub.publish(states)
-        if tfs:
+        if tfs and stamp != self._last_tf_stamp:   # tf2 rejects repeated stamps (paused)
+            self._last_tf_stamp = stamp
             self.tf_pub.publish(TFMessage(tfs))
 
 

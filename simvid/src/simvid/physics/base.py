@@ -46,9 +46,11 @@ and one warning says so. ODE: ``Body.setGravityMode(False)``; Bullet: a force op
 gravity is applied at the centre of mass before each step.
 
 Collisions: box, sphere, cylinder (axis z), plane (infinite, static models only) and mesh
-(loaded with trimesh; static meshes are exact triangle meshes, meshes of moving models
-are triangle meshes in ODE and convex hulls in Bullet). Contacts have Coulomb friction
-``mu`` (1.0, Gazebo's default) and no bounce.
+(loaded with trimesh). Bullet: static meshes are exact concave triangle meshes, meshes of
+moving models their convex hulls. ODE: Debian's python3-pyode is built without trimesh
+support, so a mesh becomes a set of boxes from a voxelisation (``mesh_boxes``, 24 voxels
+along its longest extent, exact for box-shaped meshes, within one voxel otherwise).
+Contacts have Coulomb friction ``mu`` (1.0, Gazebo's default) and no bounce.
 """
 import logging
 import math
@@ -58,7 +60,7 @@ import numpy as np
 from ..model import Model, ModelError
 from ..transforms import InvalidPose, Pose, matrix_to_quat
 
-__all__ = ['PhysicsEngine', 'BodySpec', 'lump_model', 'load_mesh', 'check_pose',
+__all__ = ['PhysicsEngine', 'BodySpec', 'lump_model', 'load_mesh', 'mesh_boxes', 'check_pose',
            'check_vector']
 
 log = logging.getLogger('simvid.physics')
@@ -116,6 +118,83 @@ def load_mesh(path, scale=(1.0, 1.0, 1.0)):
         raise ModelError('mesh %r has non-finite vertices' % path)
     _mesh_cache[key] = (verts, faces)
     return verts, faces
+
+
+def mesh_boxes(verts, faces, cells=24):
+    """Boxes [(centre (3,), size (3,))] in the mesh frame that cover a triangle mesh:
+    the mesh is voxelised (``cells`` voxels along its longest extent; filled inside when
+    it is watertight), runs of voxels are merged greedily into boxes, and each box is
+    clipped to the mesh's bounding box (so a box-shaped mesh becomes exactly one box).
+    Used by the ODE backend because Debian's python3-pyode is built without trimesh
+    support; surfaces that are not axis-aligned are approximated to one voxel."""
+    import trimesh
+    verts = np.asarray(verts, dtype=float)
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    ext = hi - lo
+    pad = np.maximum(0.0, (1e-3 - ext) / 2)      # flat meshes get 1 mm of thickness
+    lo, hi = lo - pad, hi + pad
+    pitch = max(float(ext.max()) / cells, 1e-6)
+    # surface voxels: every vertex of the mesh subdivided to edges shorter than half a voxel
+    # (trimesh's own voxeliser needs scipy, which the project does not otherwise use)
+    from trimesh.remesh import subdivide_to_size
+    points, _ = subdivide_to_size(verts, faces, max_edge=pitch / 2.0, max_iter=20)
+    idx = np.floor((np.asarray(points) - lo) / pitch).astype(int)
+    shape = np.maximum(idx.max(axis=0) + 1, 1)
+    free = np.zeros(shape, dtype=bool)
+    free[idx[:, 0], idx[:, 1], idx[:, 2]] = True
+    if trimesh.Trimesh(vertices=verts, faces=faces).is_watertight:
+        free = _fill_inside(free)
+    tf = np.eye(4)
+    tf[:3, :3] *= pitch
+    tf[:3, 3] = lo + pitch / 2.0
+    nx, ny, nz = free.shape
+    boxes = []
+    for i, j, k in np.argwhere(free):
+        if not free[i, j, k]:
+            continue
+        k1 = k
+        while k1 + 1 < nz and free[i, j, k1 + 1]:
+            k1 += 1
+        j1 = j
+        while j1 + 1 < ny and free[i, j1 + 1, k:k1 + 1].all():
+            j1 += 1
+        i1 = i
+        while i1 + 1 < nx and free[i1 + 1, j:j1 + 1, k:k1 + 1].all():
+            i1 += 1
+        free[i:i1 + 1, j:j1 + 1, k:k1 + 1] = False
+        a = tf[:3, :3].dot([i, j, k]) + tf[:3, 3]
+        b = tf[:3, :3].dot([i1, j1, k1]) + tf[:3, 3]
+        low = np.maximum(np.minimum(a, b) - pitch / 2, lo)
+        high = np.minimum(np.maximum(a, b) + pitch / 2, hi)
+        if np.all(high - low > 1e-9):
+            boxes.append(((low + high) / 2, high - low))
+    if not boxes:   # degenerate voxelisation: fall back to the bounding box
+        boxes.append(((lo + hi) / 2, hi - lo))
+    return boxes
+
+
+def _fill_inside(shell):
+    """Voxels enclosed by a closed shell of voxels: everything that a 6-connected flood
+    from outside the grid cannot reach (trimesh's own fill needs scipy)."""
+    pad = np.pad(shell, 1)
+    outside = np.zeros_like(pad)
+    outside[0, :, :] = outside[-1, :, :] = True
+    outside[:, 0, :] = outside[:, -1, :] = True
+    outside[:, :, 0] = outside[:, :, -1] = True
+    outside &= ~pad
+    while True:
+        grown = outside.copy()
+        grown[1:, :, :] |= outside[:-1, :, :]
+        grown[:-1, :, :] |= outside[1:, :, :]
+        grown[:, 1:, :] |= outside[:, :-1, :]
+        grown[:, :-1, :] |= outside[:, 1:, :]
+        grown[:, :, 1:] |= outside[:, :, :-1]
+        grown[:, :, :-1] |= outside[:, :, 1:]
+        grown &= ~pad
+        if np.array_equal(grown, outside):
+            break
+        outside = grown
+    return ~outside[1:-1, 1:-1, 1:-1]
 
 
 class Shape(object):

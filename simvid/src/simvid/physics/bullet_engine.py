@@ -125,7 +125,8 @@ class BulletEngine(PhysicsEngine):
                     if sid < 0:
                         raise ModelError('model %r: Bullet refused collision %r of link %r'
                                          % (rec.name, shape.name, shape.link))
-                    bid = p.createMultiBody(0.0, sid, physicsClientId=c)
+                    bid = p.createMultiBody(0.0, sid, useMaximalCoordinates=True,
+                                            physicsClientId=c)
                     self._dynamics(bid)
                     bodies.append((bid, shape))
                 rec.native = {'bodies': bodies}

@@ -12,6 +12,10 @@ static geoms in ``_static_space`` and infinite planes in a plain list. Each step
   the bounding box of all moving geoms (a few float operations) and collided only when
   something reaches it.
 
+Meshes: Debian's pyode is built without trimesh support (``ode.TriMeshData`` raises), so
+a mesh collision becomes the boxes of ``base.mesh_boxes`` (a voxelisation, exact for
+box-shaped meshes, within one voxel of 1/24 of the mesh's size otherwise).
+
 Contacts found in that pass become contact joints for the next ``quickStep`` (the usual
 collide-then-step loop, shifted so that ``in_contact`` describes the current state).
 Contacts: Coulomb friction (``dContactApprox1``, mu 1), no bounce; world ERP 0.2, CFM
@@ -22,7 +26,7 @@ most 0.1 mm).
 import numpy as np
 import ode
 
-from .base import FRICTION, PhysicsEngine, log
+from .base import FRICTION, PhysicsEngine, mesh_boxes
 from ..transforms import Pose
 
 __all__ = ['OdeEngine']
@@ -56,25 +60,27 @@ class OdeEngine(PhysicsEngine):
         self._touching = set()
         self._dirty = True           # contacts must be recomputed before the next step
         self._contact_mode = ode.ContactApprox1
+        self._mesh_boxes = {}        # id(mesh arrays) -> (mesh arrays, [(centre, size)])
 
     # ---- building ----------------------------------------------------------------------
-    def _make_geom(self, shape, space):
+    def _make_geoms(self, shape, space):
+        """[(geom, offset Pose in the shape's frame)] for one collision shape."""
         g = shape.geometry
         if g.kind == 'box':
-            geom = ode.GeomBox(space, tuple(float(x) for x in g.size))
-        elif g.kind == 'sphere':
-            geom = ode.GeomSphere(space, g.radius)
-        elif g.kind == 'cylinder':
-            geom = ode.GeomCylinder(space, g.radius, g.length)
-        elif g.kind == 'mesh':
+            return [(ode.GeomBox(space, tuple(float(x) for x in g.size)), None)]
+        if g.kind == 'sphere':
+            return [(ode.GeomSphere(space, g.radius), None)]
+        if g.kind == 'cylinder':
+            return [(ode.GeomCylinder(space, g.radius, g.length), None)]
+        if g.kind == 'mesh':
+            # Debian's pyode has no trimesh support: boxes from a voxelisation
             verts, faces = shape.mesh
-            data = ode.TriMeshData()
-            data.build([tuple(v) for v in verts.tolist()], [tuple(f) for f in faces.tolist()])
-            geom = ode.GeomTriMesh(data, space)
-            geom.attribs['data'] = data   # the geom does not own its data
-        else:
-            raise AssertionError(g.kind)
-        return geom
+            key = id(shape.mesh)
+            if key not in self._mesh_boxes:
+                self._mesh_boxes[key] = (shape.mesh, mesh_boxes(verts, faces))
+            return [(ode.GeomBox(space, tuple(float(x) for x in size)), Pose(centre))
+                    for centre, size in self._mesh_boxes[key][1]]
+        raise AssertionError(g.kind)
 
     def _add(self, rec, pose):
         spec = rec.spec
@@ -84,9 +90,10 @@ class OdeEngine(PhysicsEngine):
                 if shape.geometry.kind == 'plane':
                     geom = ode.GeomPlane(None, (0.0, 0.0, 1.0), 0.0)
                     self._planes.append([geom, None, 0.0])
+                    geoms.append((geom, shape, None))
                 else:
-                    geom = self._make_geom(shape, self._static_space)
-                geoms.append((geom, shape))
+                    for geom, off in self._make_geoms(shape, self._static_space):
+                        geoms.append((geom, shape, off))
             rec.native = {'geoms': geoms}
             self._place_static(rec, pose)
         else:
@@ -101,20 +108,22 @@ class OdeEngine(PhysicsEngine):
             body.setPosition(tuple(bpose.p))
             body.setQuaternion(_wxyz(bpose.q))
             for shape in spec.shapes:
-                geom = self._make_geom(shape, self._dyn_space)
-                geom.setBody(body)
-                off = rec.com_inv * shape.pose
-                geom.setOffsetPosition(tuple(off.p))
-                geom.setOffsetQuaternion(_wxyz(off.q))
-                geoms.append((geom, shape))
+                for geom, sub in self._make_geoms(shape, self._dyn_space):
+                    geom.setBody(body)
+                    off = rec.com_inv * shape.pose
+                    if sub is not None:
+                        off = off * sub
+                    geom.setOffsetPosition(tuple(off.p))
+                    geom.setOffsetQuaternion(_wxyz(off.q))
+                    geoms.append((geom, shape, sub))
             rec.native = {'body': body, 'geoms': geoms}
-        for geom, _ in geoms:
+        for geom, _, _ in geoms:
             self._geom_model[geom] = rec.name
         self._dirty = True
 
     def _remove(self, rec):
         self._clear_contacts()
-        for geom, shape in rec.native['geoms']:
+        for geom, shape, _ in rec.native['geoms']:
             self._geom_model.pop(geom, None)
             if shape.geometry.kind == 'plane':
                 self._planes = [p for p in self._planes if p[0] is not geom]
@@ -132,8 +141,10 @@ class OdeEngine(PhysicsEngine):
         self._dirty = True
 
     def _place_static(self, rec, pose):
-        for geom, shape in rec.native['geoms']:
+        for geom, shape, sub in rec.native['geoms']:
             wp = pose * shape.pose
+            if sub is not None:
+                wp = wp * sub
             if shape.geometry.kind == 'plane':
                 n = wp.rotate(shape.geometry.normal / np.linalg.norm(shape.geometry.normal))
                 d = float(np.dot(n, wp.p))
@@ -233,5 +244,3 @@ class OdeEngine(PhysicsEngine):
             self.remove_model(name)
 
 
-if not hasattr(ode, 'GeomCylinder'):  # pragma: no cover - very old pyode
-    log.warning('this pyode has no GeomCylinder: cylinder collisions will fail')

@@ -1,0 +1,238 @@
+"""The sim camera plugin (libgazebo_ros_camera.so) without a roscore: parameters of both URDF
+syntaxes (thesis table 4.1 / Gazebo classic), rate capping, topic names, bad parameters,
+frames rendered through a world stand-in, set_hfov / set_update_rate."""
+import logging
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from simvid import plugins
+from simvid.model import Geometry, Link, Material, Model, PluginSpec, Visual, Joint
+from simvid.plugins.camera import CameraPlugin
+from simvid.render import Renderer
+from simvid.transforms import Pose
+
+THESIS = '''<camera name="camera_sensor">
+  <imageSize>480 800</imageSize>
+  <updateRate>30.0</updateRate>
+  <gazebo_ros_camera name="controller-name" plugin="libgazebo_ros_camera.so">
+    <alwaysOn>true</alwaysOn>
+    <updateRate>100.0</updateRate>
+    <imageTopicName>/mobile_device/image_raw</imageTopicName>
+    <cameraInfoTopicName>/mobile_device/camera_info</cameraInfoTopicName>
+    <frameName>mobile_camera_unit</frameName>
+  </gazebo_ros_camera>
+</camera>'''
+
+CLASSIC = '''<sensor type="camera" name="cam1">
+  <update_rate>15</update_rate>
+  <camera>
+    <horizontal_fov>1.2</horizontal_fov>
+    <image><width>64</width><height>48</height><format>R8G8B8</format></image>
+    <clip><near>0.05</near><far>50</far></clip>
+  </camera>
+  <plugin name="camera_controller" filename="libgazebo_ros_camera.so">
+    <alwaysOn>true</alwaysOn>
+    <updateRate>0.0</updateRate>
+    <cameraName>rrbot/camera1</cameraName>
+    <imageTopicName>image_raw</imageTopicName>
+    <cameraInfoTopicName>camera_info</cameraInfoTopicName>
+    <frameName>camera_link_optical</frameName>
+    <distortionK1>-0.1</distortionK1>
+    <distortionT2>0.001</distortionT2>
+  </plugin>
+</sensor>'''
+
+
+class World(object):
+    """What a plugin may use of simvid.world.World, without ROS."""
+    ros_enabled = False
+
+    def __init__(self, models):
+        self.models = {m.name: m for m in models}
+        self.renderer = Renderer()
+        for m in models:
+            self.renderer.add_model(m)
+        self.sim_time = 0.0
+
+    def link_pose(self, model_name, link_name):
+        m = self.models[model_name]
+        return m.pose * m.link_poses()[link_name]
+
+    def ros_now(self):
+        return None
+
+
+def _phone(pose=None):
+    """The thesis phone in short: a body and a camera link pitched -90 deg (looks down)."""
+    body = Link('mobile_device_body', visuals=[Visual(Geometry('box', size=(0.124, 0.063, 0.011)))])
+    cam = Link('mobile_camera_unit')
+    j = Joint('cam_joint', 'fixed', 'mobile_device_body', 'mobile_camera_unit',
+              origin=Pose.from_xyz_rpy((0.04, 0, -0.006), (0, math.pi / 2, 0)))
+    return Model('mobile_device', links={body.name: body, cam.name: cam}, joints=[j],
+                 pose=pose or Pose((0, 0, 0.5)), robot_namespace='mobile_device')
+
+
+def _target():
+    """A red square on the floor under the phone (seen by its camera)."""
+    return Model('target', links={'t': Link('t', visuals=[
+        Visual(Geometry('box', size=(0.1, 0.1, 0.01)), material=Material((1, 0, 0, 1), lit=False))])},
+        pose=Pose((0.04, 0, 0)))
+
+
+def _spec(xml, link='mobile_camera_unit'):
+    sensor = ET.fromstring(xml)
+    plugin = next(c for c in sensor if c.tag in ('plugin', 'gazebo_ros_camera'))
+    filename = plugin.get('filename') or plugin.get('plugin')
+    return PluginSpec(filename, plugin.get('name'), plugin, sensor, 'camera', link)
+
+
+def _load(xml, model=None, world=None, link='mobile_camera_unit'):
+    model = model or _phone()
+    world = world or World([model, _target()])
+    p = CameraPlugin(_spec(xml, link), model, world)
+    p.load()
+    return p, world
+
+
+def test_registered_under_the_gazebo_names():
+    for name in ('libgazebo_ros_camera.so', 'libgazebo_ros_openni_kinect.so',
+                 'libgazebo_ros_depth_camera.so'):
+        assert plugins.lookup(name) is CameraPlugin
+
+
+def test_thesis_parameters():
+    p, _ = _load(THESIS)
+    i = p.camera.intr
+    assert (i.width, i.height) == (480, 800)
+    assert p.camera.hfov == pytest.approx(math.radians(60))         # default 60 deg
+    assert i.fx == pytest.approx(240 / math.tan(math.radians(30)))
+    assert p.update_rate == 30.0                  # sensor 30 Hz, controller's 100 caps nothing
+    assert p.image_topic == '/mobile_device/image_raw'
+    assert p.info_topic == '/mobile_device/camera_info'
+    assert p.points_topic == '/mobile_device/points'                 # in robotNamespace
+    assert p.hfov_topic == '/mobile_device/set_hfov'
+    assert p.rate_topic == '/mobile_device/set_update_rate'
+    assert p.frame_id == 'mobile_camera_unit'
+
+
+def test_classic_parameters_and_camera_name():
+    p, _ = _load(CLASSIC)
+    i = p.camera.intr
+    assert (i.width, i.height) == (64, 48)
+    assert p.camera.hfov == pytest.approx(1.2)
+    assert (p.camera.near, p.camera.far) == (0.05, 50.0)
+    assert p.update_rate == 15.0
+    assert list(i.D) == [-0.1, 0.0, 0.0, 0.001, 0.0]
+    assert p.image_topic == '/mobile_device/rrbot/camera1/image_raw'
+    assert p.hfov_topic == '/mobile_device/rrbot/camera1/set_hfov'
+    assert p.frame_id == 'camera_link_optical'
+
+
+def _variant(**params):
+    root = ET.fromstring(THESIS)
+    ctl = root.find('gazebo_ros_camera')
+    for k, v in params.items():
+        target = root if k in ('imageSize', 'hfov', 'updateRate_sensor') else ctl
+        k = 'updateRate' if k == 'updateRate_sensor' else k
+        el = target.find(k)
+        if el is None:
+            el = ET.SubElement(target, k)
+        el.text = v
+    return ET.tostring(root, encoding='unicode')
+
+
+def test_table_4_1_parameters():
+    p, _ = _load(_variant(hfov='45', Cx='200', Cy='410', focal_length='0',
+                          distortion_k1='-0.2', distortion_k2='0.05', distortion_k3='0.01',
+                          distortion_t1='0.001', distortion_t2='0.002', robotNamespace='phone',
+                          imageTopicName='cam/image_raw', cameraInfoTopicName='cam/camera_info',
+                          pointCloudTopicName='cam/points', updateRate='10'))
+    i = p.camera.intr
+    assert p.camera.hfov == pytest.approx(math.radians(45))       # 2011 <hfov> is degrees
+    assert (i.cx, i.cy) == (200.0, 410.0)
+    assert list(i.D) == [-0.2, 0.05, 0.001, 0.002, 0.01]
+    assert p.update_rate == 10.0                                   # controller caps 30 to 10
+    assert (p.image_topic, p.info_topic, p.points_topic) == (
+        '/phone/cam/image_raw', '/phone/cam/camera_info', '/phone/cam/points')
+    assert p.hfov_topic == '/phone/cam/set_hfov'
+    q, _ = _load(_variant(focal_length='300'))
+    assert q.camera.intr.fx == 300.0 and q.camera.hfov == pytest.approx(2 * math.atan(240 / 300.0))
+
+
+@pytest.mark.parametrize('params,words', [
+    (dict(imageSize='abc'), 'imageSize'),
+    (dict(imageSize='480'), 'imageSize'),
+    (dict(imageSize='-480 800'), 'size'),
+    (dict(hfov='-30'), 'hfov'),
+    (dict(hfov='200'), 'hfov'),
+    (dict(hfov='wide'), 'hfov'),
+    (dict(updateRate='-5'), 'updateRate'),
+    (dict(focal_length='-1'), 'focal_length'),
+    (dict(Cx='left'), 'Cx'),
+    (dict(distortion_k1='x'), 'distortion_k1'),
+])
+def test_bad_parameters_raise_a_clear_plugin_error(params, words):
+    with pytest.raises(plugins.PluginError) as e:
+        _load(_variant(**params))
+    assert words in str(e.value) and 'mobile_device' in str(e.value)
+
+
+def test_bad_parameters_through_create_log_one_line_and_return_none(caplog):
+    model = _phone()
+    world = World([model])
+    spec = _spec(_variant(imageSize='abc'))
+    with caplog.at_level(logging.ERROR):
+        assert plugins.create(spec, model, world) is None
+    lines = [r for r in caplog.records if r.levelno >= logging.ERROR]
+    assert len(lines) == 1 and 'imageSize' in lines[0].getMessage()
+
+
+def test_frames_show_what_the_phone_sees_and_set_hfov_zooms():
+    p, world = _load(_variant(imageSize='120 200'))
+    p.update(0.0)
+    img, info = p.last_image, p.last_info
+    assert (img.width, img.height, img.encoding, img.step) == (120, 200, 'rgb8', 360)
+    assert img.header.frame_id == info.header.frame_id == 'mobile_camera_unit'
+    assert list(info.K) == pytest.approx([p.camera.intr.fx, 0, 59.5, 0, p.camera.intr.fx, 99.5, 0, 0, 1])
+    rgb = np.frombuffer(img.data, np.uint8).reshape(200, 120, 3)
+    red = (rgb[:, :, 0] > 200) & (rgb[:, :, 1] < 60)
+    # the 10 cm red square 0.494 m under the camera: side = f * 0.1 / 0.489 px
+    side = p.camera.intr.fx * 0.1 / (0.5 - 0.006 - 0.005)
+    assert abs(np.sqrt(red.sum()) - side) < 2.0
+    ys, xs = np.nonzero(red)
+    assert abs(xs.mean() - 59.5) < 1 and abs(ys.mean() - 99.5) < 1
+    assert p.set_hfov(math.radians(30))
+    p.update(0.1)
+    fx2 = p.last_info.K[0]
+    assert fx2 == pytest.approx(60 / math.tan(math.radians(15)))
+    rgb2 = np.frombuffer(p.last_image.data, np.uint8).reshape(200, 120, 3)
+    red2 = (rgb2[:, :, 0] > 200) & (rgb2[:, :, 1] < 60)
+    assert np.sqrt(red2.sum()) == pytest.approx(np.sqrt(red.sum()) * fx2 / info.K[0], abs=2.0)
+
+
+def test_bad_run_time_values_are_refused_and_logged(caplog):
+    p, _ = _load(THESIS)
+    fx = p.camera.intr.fx
+    with caplog.at_level(logging.ERROR):
+        assert not p.set_hfov(-1.0)
+        assert not p.set_hfov(float('nan'))
+        assert not p.set_update_rate(-3)
+    assert len([r for r in caplog.records if r.levelno >= logging.ERROR]) == 3
+    assert 'set_hfov' in caplog.text and 'set_update_rate' in caplog.text
+    p._apply_pending(0.0)
+    assert p.camera.intr.fx == fx and p.update_rate == 30.0
+
+
+def test_rate_follows_sim_time_and_set_update_rate():
+    p, _ = _load(_variant(imageSize='16 16'))
+    assert p.update_rate == 30.0
+    dt = 0.001
+    fired = [k * dt for k in range(1, 2001) if p.due(k * dt)]   # 2 s of 1 ms world steps
+    assert len(fired) in (60, 61)
+    assert p.set_update_rate(5.0)
+    p._apply_pending(2.0)
+    fired = [2.0 + k * dt for k in range(1, 2001) if p.due(2.0 + k * dt)]
+    assert len(fired) in (10, 11) and p.update_rate == 5.0

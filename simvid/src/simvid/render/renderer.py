@@ -9,6 +9,7 @@ import logging
 import math
 import threading
 
+import cv2
 import numpy as np
 
 from ..transforms import Pose
@@ -164,6 +165,7 @@ class _Item(object):
         self.texture_key = texture_key
         self.lit = lit
         self.vbo = None
+        self.vao = None
         self.world = np.eye(4)
         self.transparent = self.rgba[3] < 0.999
 
@@ -193,6 +195,7 @@ class Renderer(object):
         self.background = DEFAULT_BACKGROUND
         self._trash = []               # GL buffers to delete in the render thread
         self._prog = None              # (program, uniform locations)
+        self._rgba_bufs = {}
         self.frames = 0
 
     # -- scene ------------------------------------------------------------------------------
@@ -260,6 +263,9 @@ class Renderer(object):
             if it.vbo is not None:
                 self._trash.append(('buf', it.vbo))
                 it.vbo = None
+            if it.vao is not None:
+                self._trash.append(('vao', it.vao))
+                it.vao = None
 
     def model_names(self):
         with self._lock:
@@ -373,13 +379,21 @@ class Renderer(object):
             n_lights = self._setup_lights()
             self._use_program(n_lights)
             self._draw_all(V)
-            rgb = np.empty((h, w, 3), np.uint8)
-            self.ctx.read_rgb_raw(w, h, rgb)       # flipped projection: row 0 is the top
+            # flipped projection: row 0 is the top. RGBA readback is several times faster
+            # than RGB on llvmpipe; dropping alpha in OpenCV costs less than the difference.
+            rgba = self.ctx.read_rgba_raw(w, h, self._rgba_buffer(w, h))
+            rgb = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
             d = None
             if depth:
                 d = linearize_depth(self.ctx.read_depth_raw(w, h), view.near, view.far)
             self.frames += 1
         return (rgb, d) if depth else rgb
+
+    def _rgba_buffer(self, w, h):
+        buf = self._rgba_bufs.get((w, h))
+        if buf is None:
+            buf = self._rgba_bufs[(w, h)] = np.empty((h, w, 4), np.uint8)
+        return buf
 
     def _empty_trash(self):
         from OpenGL import GL
@@ -387,6 +401,8 @@ class Renderer(object):
             try:
                 if kind == 'buf':
                     GL.glDeleteBuffers(1, [obj])
+                elif kind == 'vao':
+                    GL.glDeleteVertexArrays(1, [obj])
                 else:
                     GL.glDeleteTextures([obj])
             except Exception:  # noqa: BLE001
@@ -420,9 +436,6 @@ class Renderer(object):
         GL.glMaterialfv(GL.GL_FRONT_AND_BACK, GL.GL_SPECULAR, (0.1, 0.1, 0.1, 1.0))
         GL.glMaterialf(GL.GL_FRONT_AND_BACK, GL.GL_SHININESS, 20.0)
         GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_MODULATE)
-        GL.glEnableClientState(GL.GL_VERTEX_ARRAY)
-        GL.glEnableClientState(GL.GL_NORMAL_ARRAY)
-        GL.glEnableClientState(GL.GL_TEXTURE_COORD_ARRAY)
         GL.glDisable(GL.GL_BLEND)
 
     def _setup_lights(self):
@@ -495,8 +508,7 @@ class Renderer(object):
                 self._draw(it, V, dyn_items.get(id(it)))
             GL.glDepthMask(GL.GL_TRUE)
             GL.glDisable(GL.GL_BLEND)
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
-        GL.glDisable(GL.GL_TEXTURE_2D)
+        GL.glBindVertexArray(0)
         GL.glUseProgram(0)
 
     def _use_program(self, n_lights):
@@ -530,17 +542,10 @@ class Renderer(object):
 
     def _draw(self, it, V, dyn):
         from OpenGL import GL
-        if it.vbo is None:
-            data = it.mesh.interleaved()
-            it.vbo = GL.glGenBuffers(1)
-            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, it.vbo)
-            GL.glBufferData(GL.GL_ARRAY_BUFFER, data.nbytes, data, GL.GL_STATIC_DRAW)
-        else:
-            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, it.vbo)
+        if it.vao is None:
+            self._make_vao(it)
+        GL.glBindVertexArray(it.vao)
         GL.glLoadMatrixd(V.dot(it.world).T.ravel())
-        GL.glVertexPointer(3, GL.GL_FLOAT, 32, ctypes.c_void_p(0))
-        GL.glNormalPointer(GL.GL_FLOAT, 32, ctypes.c_void_p(12))
-        GL.glTexCoordPointer(2, GL.GL_FLOAT, 32, ctypes.c_void_p(24))
         if it.mesh.double_sided:
             GL.glDisable(GL.GL_CULL_FACE)
         else:
@@ -567,6 +572,26 @@ class Renderer(object):
             self._material(None, (1.0, 1.0, 1.0, 1.0), False, tid=dyn.tex)
             for first, count in dyn_ranges:
                 GL.glDrawArrays(GL.GL_TRIANGLES, first, count)
+
+    @staticmethod
+    def _make_vao(it):
+        """A vertex array object holding the item's buffer and its (legacy) array pointers:
+        one bind per draw instead of three pointer calls."""
+        from OpenGL import GL
+        data = it.mesh.interleaved()
+        it.vao = GL.glGenVertexArrays(1)
+        GL.glBindVertexArray(it.vao)
+        it.vbo = GL.glGenBuffers(1)
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, it.vbo)
+        GL.glBufferData(GL.GL_ARRAY_BUFFER, data.nbytes, data, GL.GL_STATIC_DRAW)
+        GL.glEnableClientState(GL.GL_VERTEX_ARRAY)
+        GL.glEnableClientState(GL.GL_NORMAL_ARRAY)
+        GL.glEnableClientState(GL.GL_TEXTURE_COORD_ARRAY)
+        GL.glVertexPointer(3, GL.GL_FLOAT, 32, ctypes.c_void_p(0))
+        GL.glNormalPointer(GL.GL_FLOAT, 32, ctypes.c_void_p(12))
+        GL.glTexCoordPointer(2, GL.GL_FLOAT, 32, ctypes.c_void_p(24))
+        GL.glBindVertexArray(0)
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
 
     def _material(self, tex_key, rgba, lit, tid=None):
         from OpenGL import GL

@@ -159,14 +159,13 @@ class XVncServer(object):
             self._x = xdisplay.Display(':%d' % self.display)
         return self._x
 
-    def show(self, rgb):
-        """Make the whole screen show ``rgb`` (HxWx3 uint8, the screen's size)."""
+    def upload(self, rgb):
+        """A server-side pixmap holding ``rgb`` (HxWx3 uint8)."""
         from Xlib import X
         d = self._xdisplay()
         scr = d.screen()
-        root = scr.root
         h, w = rgb.shape[:2]
-        pix = root.create_pixmap(w, h, scr.root_depth)
+        pix = scr.root.create_pixmap(w, h, scr.root_depth)
         gc = pix.create_gc()
         # ZPixmap, depth 24, 32 bits per pixel, little endian: bytes B, G, R, x
         bgrx = np.zeros((h, w, 4), np.uint8)
@@ -178,9 +177,16 @@ class XVncServer(object):
             band = bgrx[y:y + rows]
             pix.put_image(gc, 0, y, w, band.shape[0], X.ZPixmap, scr.root_depth, 0,
                           band.tobytes())
+        gc.free()
+        return pix
+
+    def show(self, rgb):
+        """Make the whole screen show ``rgb`` (HxWx3 uint8, the screen's size)."""
+        d = self._xdisplay()
+        root = d.screen().root
+        pix = self.upload(rgb)
         root.change_attributes(background_pixmap=pix)
         root.clear_area(0, 0, 0, 0)
-        gc.free()
         pix.free()
         d.sync()
 

@@ -217,6 +217,30 @@ def test_floating_gravity_off_model_stays(engine):
     assert engine.model_pose('falls').p[2] < 0.06   # gravity still acts on the others
 
 
+def test_gravity_per_body_whatever_the_mix(engine):
+    """Mostly floating bodies, then mostly falling ones (Bullet switches which group gets
+    the per-step force): each body keeps its own gravity through additions, removals and
+    a gravity change."""
+    for i in range(3):
+        engine.add_model(box_model('float%d' % i, pose=Pose((i, 0, 2)), gravity=False))
+    engine.add_model(box_model('fall0', pose=Pose((0, 3, 2))))
+    engine.step(200)      # 0.2 s: a falling body drops g t^2 / 2 = 0.196 m
+    for i in range(3):
+        assert engine.model_pose('float%d' % i).p[2] == pytest.approx(2.0, abs=1e-9)
+    assert engine.model_pose('fall0').p[2] == pytest.approx(2 - 0.5 * G * 0.2 ** 2, abs=2e-3)
+    for i in range(1, 4):
+        engine.add_model(box_model('fall%d' % i, pose=Pose((i, 3, 2))))
+    engine.remove_model('float0')
+    engine.set_model_twist('fall0', (0, 0, 0), (0, 0, 0))
+    engine.set_gravity((0, 0, -2 * G))
+    engine.step(100)
+    for i in range(1, 3):
+        assert engine.model_pose('float%d' % i).p[2] == pytest.approx(2.0, abs=1e-9)
+    for i in range(1, 4):
+        assert engine.model_pose('fall%d' % i).p[2] == pytest.approx(2 - G * 0.1 ** 2, abs=2e-3)
+    assert np.linalg.norm(engine.model_twist('float1')[1]) < 1e-9
+
+
 def test_no_damping_and_twist_of_link_origin(engine):
     """Gravity off, no contacts: the centre of mass moves in a straight line at constant
     speed and the spin stays constant (pybullet's default damping is zeroed); the twist is

@@ -7,8 +7,10 @@ default linear/angular damping set to zero, sleeping disabled (ODE and Gazebo do
 bodies to sleep either), friction 1, restitution 0. Their shapes form one compound
 (``createCollisionShapeArray``; a mesh there goes through a temporary .obj file holding
 its convex hull). Static models get one fixed body per collision shape; static meshes are
-exact concave triangle meshes. Floating bodies (gravity off) get a force of -m*g at the
-centre of mass before every step.
+exact concave triangle meshes. pybullet has one gravity for all bodies, so per-body
+gravity is a force at the centre of mass applied before every step to the smaller group:
+-m*g on floating bodies (gravity off), or, when most moving bodies float (the default
+world: phone and flycam), zero world gravity and +m*g on the others.
 
 ``in_contact`` runs ``performCollisionDetection`` on the current state once per step
 (only when asked) and counts contact points with ``contactDistance <= 0``: Bullet also
@@ -45,7 +47,7 @@ class BulletEngine(PhysicsEngine):
         p.setTimeStep(self.step_size, physicsClientId=c)
         p.setPhysicsEngineParameter(fixedTimeStep=self.step_size, numSubSteps=0,
                                     deterministicOverlappingPairs=1, physicsClientId=c)
-        self._floating = []          # [[body id, force list]]
+        self._forced = []            # [(body id, [fx, fy, fz])] applied before each step
         self._contacts_valid = False
         self._tmpdir = None
 
@@ -151,20 +153,19 @@ class BulletEngine(PhysicsEngine):
                                activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
                 bodies.append((bid, None))
                 rec.native = {'bodies': bodies, 'body': bid}
-                if not spec.gravity:
-                    self._floating.append([bid, rec])
         except Exception:
             for bid, _ in bodies:
                 p.removeBody(bid, physicsClientId=c)
             raise
         self._contacts_valid = False
+        self._balance_gravity(extra=rec)
 
     def _remove(self, rec):
         for bid, _ in rec.native['bodies']:
             p.removeBody(bid, physicsClientId=self._c)
-        self._floating = [f for f in self._floating if f[1] is not rec]
         rec.native = None
         self._contacts_valid = False
+        self._balance_gravity(skip=rec)
 
     def _place_static(self, rec, pose):
         for bid, shape in rec.native['bodies']:
@@ -195,16 +196,33 @@ class BulletEngine(PhysicsEngine):
                             [float(x) for x in ang], physicsClientId=self._c)
 
     def _set_gravity(self, g):
-        p.setGravity(*[float(x) for x in g], physicsClientId=self._c)
+        self._balance_gravity()
+
+    def _balance_gravity(self, extra=None, skip=None):
+        """pybullet has one gravity for all bodies. Whichever group of moving bodies is
+        smaller gets a per-step force: floating bodies get -m*g while the world has gravity,
+        or, when most moving bodies float (the default world: phone and flycam), the world
+        gravity is zero and the bodies with gravity get +m*g."""
+        recs = [r for r in self._models.values() if r is not skip]
+        if extra is not None and extra not in recs:
+            recs.append(extra)
+        moving = [r for r in recs if not r.static and r.native is not None]
+        floating = [r for r in moving if not r.spec.gravity]
+        falling = [r for r in moving if r.spec.gravity]
+        g = [float(x) for x in self.gravity]
+        if len(floating) > len(falling):
+            world_g, forced, sign = [0.0, 0.0, 0.0], falling, 1.0
+        else:
+            world_g, forced, sign = g, floating, -1.0
+        p.setGravity(*world_g, physicsClientId=self._c)
+        self._forced = [(r.native['body'], [sign * r.spec.mass * x for x in g]) for r in forced]
 
     # ---- stepping ------------------------------------------------------------------------
     def step(self, n=1):
         c = self._c
         step = p.stepSimulation
-        if self._floating:
-            g = self.gravity
-            forces = [(bid, [float(-rec.spec.mass * x) for x in g])
-                      for bid, rec in self._floating]
+        forces = self._forced
+        if forces:
             getpose, force, frame = p.getBasePositionAndOrientation, p.applyExternalForce, \
                 p.WORLD_FRAME
             for _ in range(int(n)):

@@ -241,6 +241,28 @@ def test_gravity_per_body_whatever_the_mix(engine):
     assert np.linalg.norm(engine.model_twist('float1')[1]) < 1e-9
 
 
+def test_ode_floating_phone_costs_no_collision_callback():
+    """ODE: static geoms sit in their own space and planes behind a bounding-box gate, so
+    a body that touches nothing runs no Python collision callback per step."""
+    e = make_engine('ode', DT)
+    e.add_model(ground())
+    e.add_model(static_box('desk', (1.6, 0.8, 0.03), Pose((3.32, -2.1, 0.735))))
+    e.add_model(box_model('mobile_device', (0.063, 0.1239, 0.01088), 0.129,
+                          Pose((3.288, -2.11, 1.0)), gravity=False))
+    calls = []
+    near = e._near
+    e._near = lambda *a: (calls.append(a[1:]), near(*a))
+    e.step(100)
+    assert calls == []
+    e.set_model_pose('mobile_device', Pose((3.288, -2.11, 0.75 + 0.0054)))   # on the desk
+    e.step(1)
+    assert len(calls) >= 1 and e.in_contact('mobile_device')
+    e.set_model_pose('mobile_device', Pose((0, 0, 0.0054)))                  # on the floor
+    e.step(1)
+    assert e.in_contact('mobile_device') and e.in_contact('ground_plane')
+    e.close()
+
+
 def test_no_damping_and_twist_of_link_origin(engine):
     """Gravity off, no contacts: the centre of mass moves in a straight line at constant
     speed and the spin stays constant (pybullet's default damping is zeroed); the twist is

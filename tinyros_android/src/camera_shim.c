@@ -229,7 +229,7 @@ tr_camera *tr_camera_open(const tr_options *o, int preview_w, int preview_h, cha
     return c;
 }
 
-int tr_camera_preview(tr_camera *c, uint8_t *nv21, int timeout_ms)
+int tr_camera_preview(tr_camera *c, uint8_t *nv21, int timeout_ms, tr_image *frame)
 {
     pthread_mutex_lock(&c->mu);
     tr_image img;
@@ -243,6 +243,8 @@ int tr_camera_preview(tr_camera *c, uint8_t *nv21, int timeout_ms)
             if (strcmp(e, c->err) != 0) fprintf(stderr, "[tinyros] ERROR: camera preview: %s\n", e);
             snprintf(c->err, sizeof c->err, "%s", e);
             rc = 0;
+        } else if (frame) {
+            *frame = img;
         }
     }
     memcpy(nv21, c->last, tr_nv21_size(c->w, c->h));

@@ -46,7 +46,7 @@ int tr_http_parse(const char *data, size_t len, int is_response, int eof, int *s
     *status = 0;
     if (is_response) {
         if (!ci_prefix(data, l1, "HTTP/1.") || l1 < 12 || data[8] != ' ')
-            return tr_seterr(err, errlen, "not an HTTP response: \"%.40s\"", data);
+            return tr_seterr(err, errlen, "not an HTTP response: \"%.*s\"", (int)(l1 < 40 ? l1 : 40), data);
         int st = 0;
         for (int k = 9; k < 12; k++) {
             if (!isdigit((unsigned char)data[k])) return tr_seterr(err, errlen, "bad HTTP status line");
@@ -55,7 +55,7 @@ int tr_http_parse(const char *data, size_t len, int is_response, int eof, int *s
         *status = st;
     } else {
         if (!ci_prefix(data, l1, "POST "))
-            return tr_seterr(err, errlen, "not an HTTP POST request: \"%.40s\"", data);
+            return tr_seterr(err, errlen, "not an HTTP POST request: \"%.*s\"", (int)(l1 < 40 ? l1 : 40), data);
     }
     /* headers */
     long long clen = -1;
@@ -154,7 +154,8 @@ int tr_header_parse(const uint8_t *data, size_t len, tr_header *h, char *err, si
                              fl, len - off);
         const char *f = (const char *)data + off;
         const char *eq = (const char *)memchr(f, '=', fl);
-        if (!eq) return tr_seterr(err, errlen, "TCPROS header: field without '=' (%.40s)", f);
+        if (!eq)
+            return tr_seterr(err, errlen, "TCPROS header: field without '=' (\"%.*s\")", (int)(fl < 40 ? fl : 40), f);
         if (eq == f) return tr_seterr(err, errlen, "TCPROS header: field with empty name");
         if (h->n >= TR_HEADER_MAX_FIELDS)
             return tr_seterr(err, errlen, "TCPROS header: more than %d fields", TR_HEADER_MAX_FIELDS);

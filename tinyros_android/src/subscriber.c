@@ -102,6 +102,7 @@ static void slog(tr_sub *s, int level, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    tr_printable(msg);
     if (level >= TR_LOG_ERROR) {
         pthread_mutex_lock(&s->mu);
         snprintf(s->last_err, sizeof s->last_err, "%s", msg);

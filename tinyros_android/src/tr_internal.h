@@ -114,6 +114,9 @@ void tr_header_build(tr_buf *b, const char *const *kv);
 void tr_put_le32(uint8_t *p, uint32_t v);
 uint32_t tr_get_le32(const uint8_t *p);
 
+/* Replaces control characters (newlines included) by '?', in place. */
+void tr_printable(char *s);
+
 /* Writes a formatted message into err (NULL-safe). Returns -1 for convenience. */
 int tr_seterr(char *err, size_t errlen, const char *fmt, ...)
 #if defined(__GNUC__)

@@ -48,6 +48,12 @@ void tr_buf_printf(tr_buf *b, const char *fmt, ...)
     free(big);
 }
 
+void tr_printable(char *s)
+{
+    for (; *s; s++)
+        if ((unsigned char)*s < 0x20 || *s == 0x7f) *s = '?';
+}
+
 int tr_seterr(char *err, size_t errlen, const char *fmt, ...)
 {
     if (err && errlen) {
@@ -55,6 +61,7 @@ int tr_seterr(char *err, size_t errlen, const char *fmt, ...)
         va_start(ap, fmt);
         vsnprintf(err, errlen, fmt, ap);
         va_end(ap);
+        tr_printable(err);   /* peer-supplied text never breaks the one-line message */
     }
     return -1;
 }

@@ -41,8 +41,9 @@ static void usage(void)
             "  -l                append the mean publish-to-receive latency to each line\n"
             "  -q                no per-second lines\n"
             "  --stats           print a summary line at exit\n"
-            "  --nv21 WxH        also convert every frame to an NV21 preview (the camera shim)\n"
-            "  --jpeg FILE       write the last frame as JPEG at exit (camera shim takePicture)\n");
+            "  --retry-ms N      reconnect delay for a failed publisher (default 1000)\n"
+            "  --nv21 WxH        go through the Android camera shim: NV21 preview of WxH per frame\n"
+            "  --jpeg FILE       camera shim takePicture at exit: JPEG of the last frame\n");
 }
 
 int main(int argc, char **argv)
@@ -63,6 +64,7 @@ int main(int argc, char **argv)
         if (!strcmp(a, "--master") && next) { o.master_uri = next; i++; }
         else if (!strcmp(a, "--caller-id") && next) { o.caller_id = next; i++; }
         else if (!strcmp(a, "--max-bytes") && next) { o.max_message_bytes = (uint32_t)strtoul(next, NULL, 0); i++; }
+        else if (!strcmp(a, "--retry-ms") && next) { o.retry_ms = atoi(next); i++; }
         else if (!strcmp(a, "-n") && next) { max_frames = atol(next); i++; }
         else if (!strcmp(a, "-t") && next) { time_limit = atof(next); i++; }
         else if (!strcmp(a, "-v")) verbose = 1;
@@ -90,23 +92,28 @@ int main(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
 
     char err[512];
-    tr_sub *s = tr_open(&o, err, sizeof err);
+    /* --nv21/--jpeg run through the Android camera shim, as the emulator's camera would */
+    tr_camera *cam = NULL;
+    tr_sub *s;
+    if (nv_w || jpeg_path) {
+        if (!nv_w) { nv_w = 320; nv_h = 240; }
+        cam = tr_camera_open(&o, nv_w, nv_h, err, sizeof err);
+        s = cam ? tr_camera_subscriber(cam) : NULL;
+    } else {
+        s = tr_open(&o, err, sizeof err);
+    }
     if (!s) { fprintf(stderr, "tinyros_echo: %s\n", err); return 1; }
-    uint8_t *nv21 = nv_w ? (uint8_t *)malloc(tr_nv21_size(nv_w, nv_h)) : NULL;
-    uint8_t *keep = NULL;          /* copy of the last frame for --jpeg */
-    tr_image last;
-    memset(&last, 0, sizeof last);
-    size_t keep_cap = 0;
+    uint8_t *nv21 = cam ? (uint8_t *)malloc(tr_nv21_size(nv_w, nv_h)) : NULL;
 
     double t0 = mono_s(), tick = t0, lat_sum = 0, lat_all = 0;
     long frames = 0, tick_frames = 0, lat_n = 0;
     char shape[160] = "";
-    int rc = 0, nv_err_reported = 0;
+    int rc = 0;
     while (!g_stop) {
         double now = mono_s();
         if (time_limit >= 0 && now - t0 >= time_limit) { if (max_frames >= 0) rc = 2; break; }
         tr_image img;
-        int w = tr_wait(s, &img, 100);
+        int w = cam ? tr_camera_preview(cam, nv21, 100, &img) : tr_wait(s, &img, 100);
         if (w < 0) { fprintf(stderr, "tinyros_echo: subscription ended\n"); rc = 3; break; }
         now = mono_s();
         if (w == 1) {
@@ -122,18 +129,6 @@ int main(int argc, char **argv)
                        img.seq, img.stamp_sec, img.stamp_nsec, img.frame_id, img.width, img.height,
                        img.encoding, img.is_bigendian, img.step, img.data_len,
                        tr_crc32(0, img.data, img.data_len));
-            if (nv21 && tr_image_to_nv21(&img, nv21, nv_w, nv_h, err, sizeof err) && !nv_err_reported) {
-                fprintf(stderr, "tinyros_echo: NV21 preview: %s\n", err);
-                nv_err_reported = 1;
-            }
-            if (jpeg_path) {
-                if (img.data_len > keep_cap) {
-                    free(keep);
-                    keep = (uint8_t *)malloc(img.data_len);
-                    keep_cap = keep ? img.data_len : 0;
-                }
-                if (keep) { memcpy(keep, img.data, img.data_len); last = img; last.data = keep; }
-            }
             if (max_frames >= 0 && frames >= max_frames) break;
         }
         if (!quiet && now - tick >= 1.0) {
@@ -153,11 +148,12 @@ int main(int argc, char **argv)
         }
     }
     double elapsed = mono_s() - t0;
-    if (jpeg_path && last.data) {
+    if (jpeg_path) {
         uint8_t *j = NULL;
         size_t jl = 0;
-        if (tr_image_to_jpeg(&last, 0, 0, 90, &j, &jl, err, sizeof err)) {
-            fprintf(stderr, "tinyros_echo: JPEG: %s\n", err);
+        if (tr_camera_take_picture(cam, 0, 0, 90, &j, &jl)) {
+            tr_camera_error(cam, err, sizeof err);
+            fprintf(stderr, "tinyros_echo: takePicture: %s\n", err);
             rc = rc ? rc : 4;
         } else {
             FILE *f = fopen(jpeg_path, "wb");
@@ -174,8 +170,8 @@ int main(int argc, char **argv)
                (unsigned long long)st.bad_frames, (unsigned long long)st.errors, elapsed,
                elapsed > 0 ? frames / elapsed : 0.0, lat_n ? 1000.0 * lat_all / lat_n : 0.0);
     }
-    tr_close(s);
+    if (cam) tr_camera_close(cam);
+    else tr_close(s);
     free(nv21);
-    free(keep);
     return rc;
 }

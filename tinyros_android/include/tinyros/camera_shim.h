@@ -43,8 +43,11 @@ tr_camera *tr_camera_open(const tr_options *o, int preview_w, int preview_h, cha
 
 /* Fills nv21 (tr_nv21_size bytes) with the newest frame. Waits up to timeout_ms for
  * a new frame; without one the previous preview is repeated (black before the first
- * frame). Returns 1 for a new frame, 0 for a repeat, -1 when the subscription ended. */
-int tr_camera_preview(tr_camera *c, uint8_t *nv21, int timeout_ms);
+ * frame; a frame that cannot be converted is reported once and skipped). Returns 1
+ * for a new frame, 0 for a repeat, -1 when the subscription ended. If frame is not
+ * NULL and 1 is returned, *frame describes the source frame (data valid until the
+ * next call). */
+int tr_camera_preview(tr_camera *c, uint8_t *nv21, int timeout_ms, tr_image *frame);
 
 /* JPEG of the newest frame at w x h (0, 0: the frame's own size). Returns 0 or -1
  * (no frame yet, no JPEG support, bad encoding: see tr_camera_error). */

@@ -26,7 +26,7 @@ def blue_fraction(rgb):
 
 
 class Watch(object):
-    """Collects /barcode texts, camera frames, /clock and ERROR lines of /rosout_agg,
+    """Collects /barcode texts, camera frames, /clock and ERROR lines of /rosout,
     each with the wall time it arrived."""
 
     def __init__(self):
@@ -37,7 +37,7 @@ class Watch(object):
         self.frames = 0
         self.clock = None
         rospy.Subscriber('/barcode', String, self._code, queue_size=100)
-        rospy.Subscriber('/rosout_agg', Log, self._log, queue_size=1000)
+        rospy.Subscriber('/rosout', Log, self._log, queue_size=1000)
         rospy.Subscriber(CAMERA, Image, self._image, queue_size=1, buff_size=2 ** 24)
         rospy.Subscriber('/clock', Clock, self._clock, queue_size=1)
 

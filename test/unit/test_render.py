@@ -245,8 +245,8 @@ def test_missing_texture_and_mesh_are_logged_and_the_rest_shows(tmp_path, caplog
 
 
 # --- meshes written here: OBJ without normals, open STL, Collada with unit and up axis -----
-def _cube_tris(s=0.5):
-    b = shapes.box((2 * s, 2 * s, 2 * s))
+def _cube_tris(s=0.1):
+    b = shapes.box((2 * s, 2 * s, 2 * s))          # small: one cell per face, 12 triangles
     return b.positions.reshape(-1, 3, 3)
 
 
@@ -313,7 +313,7 @@ def test_obj_without_normals_gets_flat_faces_and_outward_normals(tmp_path):
     r = Renderer()
     r.add_model(_model('obj', Geometry('mesh', filename='cube.obj'), Pose(), base_dir=str(tmp_path)))
     r.set_lights([Light('s', direction=(0, 0, -1))], ambient=(0.2, 0.2, 0.2))
-    rgb = r.render(_looking_down(height=3.0))
+    rgb = r.render(_looking_down(height=0.6))
     patch = rgb[40:60, 40:60].astype(int)
     assert patch.max() - patch.min() <= 2 and patch.mean() > 150
 

@@ -81,24 +81,50 @@ def _face_frame(face):
     return n, up, right
 
 
+CELL = 0.25          # target edge length (m) of the grid big faces are split into
+MAX_DIV = 16         # at most this many cells along a face edge
+
+
+def _divisions(length):
+    return int(min(MAX_DIV, max(1, math.ceil(length / CELL - 1e-9))))
+
+
+def _grid(origin, right, up, nr, nu):
+    """Triangles of a quad split into nr x nu cells; origin = bottom-left corner, right/up =
+    full edge vectors. Returns positions (n, 3), uvs (n, 2) with t = 0 at the top edge."""
+    i, j = np.meshgrid(np.arange(nr), np.arange(nu), indexing='ij')
+    i, j = i.ravel(), j.ravel()
+    corners = []
+    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)):
+        corners.append(((i + di) / float(nr), (j + dj) / float(nu)))
+    a = np.stack([c[0] for c in corners], axis=1).reshape(-1)
+    b = np.stack([c[1] for c in corners], axis=1).reshape(-1)
+    pos = origin[None, :] + a[:, None] * right[None, :] + b[:, None] * up[None, :]
+    uv = np.stack([a, 1.0 - b], axis=1)
+    return pos, uv
+
+
 def box(size):
-    """Box centred at the origin with edge lengths ``size`` (x, y, z)."""
+    """Box centred at the origin with edge lengths ``size`` (x, y, z). Faces longer than
+    CELL are split into a grid so per-vertex lighting (point lights) stays smooth."""
     h = np.asarray(size, float) / 2.0
     pos, nor, uv, faces = [], [], [], {}
+    first = 0
     for face in BOX_FACES:
         n, up, right = _face_frame(face)
         c = n * h
         r = right * h
         u = up * h
-        # corners: bottom-left, bottom-right, top-right, top-left (seen from outside)
-        bl, br, tr, tl = c - r - u, c + r - u, c + r + u, c - r + u
-        quad = [bl, br, tr, bl, tr, tl]
-        quv = [(0, 1), (1, 1), (1, 0), (0, 1), (1, 0), (0, 0)]
-        faces[face] = (len(pos), 6)
-        pos.extend(quad)
-        nor.extend([n] * 6)
-        uv.extend(quv)
-    return MeshData(pos, nor, uv, faces=faces)
+        bl = c - r - u
+        nr = _divisions(2 * np.linalg.norm(r))
+        nu = _divisions(2 * np.linalg.norm(u))
+        p, t = _grid(bl, 2 * r, 2 * u, nr, nu)
+        faces[face] = (first, len(p))
+        first += len(p)
+        pos.append(p)
+        uv.append(t)
+        nor.append(np.repeat(n[None, :], len(p), axis=0))
+    return MeshData(np.vstack(pos), np.vstack(nor), np.vstack(uv), faces=faces)
 
 
 def cylinder(radius, length, segments=32):
@@ -162,10 +188,8 @@ def plane(normal=(0, 0, 1), size=(1.0, 1.0)):
     if sx <= 0 or sy <= 0:
         sx, sy = 1.0, 1.0
     r, u = right * sy / 2.0, up * sx / 2.0
-    bl, br, tr, tl = -r - u, r - u, r + u, -r + u
-    pos = [bl, br, tr, bl, tr, tl]
-    uv = [(0, 1), (1, 1), (1, 0), (0, 1), (1, 0), (0, 0)]
-    return MeshData(pos, [n] * 6, uv, double_sided=True)
+    pos, uv = _grid(-r - u, 2 * r, 2 * u, min(32, _divisions(sy)), min(32, _divisions(sx)))
+    return MeshData(pos, np.repeat(n[None, :], len(pos), axis=0), uv, double_sided=True)
 
 
 def crease_normals(vertices, faces, angle_deg=40.0):

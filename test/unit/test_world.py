@@ -1,0 +1,148 @@
+"""World without ROS: sim-time plugin schedule, states in relative frames, reset, errors."""
+import logging
+
+import numpy as np
+import pytest
+
+from simvid import plugins
+from simvid.model import ModelError
+from simvid.transforms import InvalidPose, Pose
+from simvid.urdf import parse_urdf
+from simvid.world import World
+
+CALLS = []
+
+
+@plugins.register('libtest_counter.so')
+class Counter(plugins.Plugin):
+    def load(self):
+        rate = self.float_param('updateRate', default=0.0)
+        if rate < 0:
+            raise plugins.PluginError('updateRate must be >= 0')
+        self.update_rate = rate
+
+    def update(self, sim_time):
+        CALLS.append((self.spec.name, round(sim_time, 6)))
+        if self.param('explode') == 'yes':
+            raise RuntimeError('boom')
+
+
+def box_robot(name='r', plugin_xml='', gravity=True):
+    g = '' if gravity else '<gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>'
+    return parse_urdf('''<robot name="%s"><link name="base">
+      <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial>
+      <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+      <link name="tip"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/>
+      </inertial></link>
+      <joint name="j" type="fixed"><parent link="base"/><child link="tip"/>
+      <origin xyz="0.5 0 0"/></joint>%s%s</robot>''' % (name, g, plugin_xml))
+
+
+@pytest.fixture(params=['ode', 'bullet'])
+def world(request):
+    w = World(physics=request.param, step_size=0.001)
+    yield w
+    w.shutdown()
+
+
+def test_plugin_rate_follows_sim_time(world):
+    del CALLS[:]
+    xml = ('<gazebo><plugin name="a" filename="libtest_counter.so"><updateRate>30</updateRate>'
+           '</plugin><plugin name="b" filename="libtest_counter.so"><updateRate>7</updateRate>'
+           '</plugin></gazebo>')
+    world.add_model(box_robot(plugin_xml=xml, gravity=False), pose=Pose((0, 0, 1)))
+    world.step(2000)  # 2 s of sim time
+    a = [t for n, t in CALLS if n == 'a']
+    b = [t for n, t in CALLS if n == 'b']
+    assert len(a) == 60 + 1 and len(b) == 14 + 1    # t = 0 counts too
+    assert np.allclose(np.diff(a), 1 / 30.0, atol=0.001 + 1e-9)
+    assert a[-1] == pytest.approx(2.0, abs=0.0011)
+
+
+def test_failing_plugin_does_not_stop_the_world(world, caplog):
+    del CALLS[:]
+    xml = ('<gazebo><plugin name="bad" filename="libtest_counter.so"><updateRate>100</updateRate>'
+           '<explode>yes</explode></plugin></gazebo>')
+    with caplog.at_level(logging.ERROR):
+        world.add_model(box_robot(plugin_xml=xml), pose=Pose((0, 0, 1)))
+        world.step(100)
+    assert world.sim_time == pytest.approx(0.1)
+    assert len([c for c in CALLS if c[0] == 'bad']) == 11
+    errors = [r for r in caplog.records if 'boom' in r.getMessage()]
+    assert len(errors) == 1        # one line, not one per update
+
+
+def test_unknown_plugin_warns_once_and_model_loads(world, caplog):
+    # one warning per library name and process: a name of its own for each engine's run
+    lib = 'libgazebo_ros_imu_never_%s.so' % world.physics_name
+    xml = '<gazebo><plugin name="x" filename="%s"/></gazebo>' % lib
+    with caplog.at_level(logging.WARNING):
+        world.add_model(box_robot('r1', xml))
+        world.add_model(box_robot('r2', xml))
+    assert 'r1' in world.models and 'r2' in world.models
+    warns = [r for r in caplog.records if lib in r.getMessage()]
+    assert len(warns) == 1
+
+
+def test_bad_plugin_param_is_one_error_and_model_loads(world, caplog):
+    xml = ('<gazebo><plugin name="neg" filename="libtest_counter.so"><updateRate>-1</updateRate>'
+           '</plugin></gazebo>')
+    with caplog.at_level(logging.ERROR):
+        world.add_model(box_robot(plugin_xml=xml))
+    assert world.plugins['r'] == []
+    assert any('updateRate must be' in r.getMessage() for r in caplog.records)
+
+
+def test_states_in_relative_frames(world):
+    world.add_model(box_robot('a', gravity=False), pose=Pose.from_xyz_rpy((1, 2, 3), (0, 0, 1.5707963)))
+    world.add_model(box_robot('b', gravity=False), pose=Pose((2, 2, 3)))
+    pose, lin, ang = world.get_state('b', 'a')
+    # b is 1 m along world x from a; a is yawed 90 deg, so that is a's -y
+    assert pose.p == pytest.approx([0, -1, 0], abs=1e-6)
+    tip, _, _ = world.entity_state('a::tip')
+    assert tip.p == pytest.approx([1, 2.5, 3], abs=1e-6)
+    world.set_state('b', Pose((0, 0, 1)), reference_frame='a')
+    assert world.model_state('b')[0].p == pytest.approx([1, 2, 4], abs=1e-6)
+    with pytest.raises(KeyError, match='no_such'):
+        world.get_state('b', 'no_such')
+    with pytest.raises(KeyError, match='ambiguous'):
+        world.entity_state('tip')
+    with pytest.raises(KeyError):
+        world.get_state('ghost')
+
+
+def test_reset_and_teleport(world):
+    world.add_model(box_robot('r'), pose=Pose((0, 0, 1)))
+    world.step(300)
+    assert world.model_state('r')[0].p[2] < 1.0      # falling
+    world.set_state('r', Pose((5, 5, 5)))
+    assert world.model_state('r')[0].p == pytest.approx([5, 5, 5])
+    world.reset()
+    assert world.model_state('r')[0].p == pytest.approx([0, 0, 1])
+    assert world.model_state('r')[1] == pytest.approx([0, 0, 0])
+    with pytest.raises(InvalidPose):
+        world.set_state('r', Pose((0, 0, 1)), lin=[np.nan, 0, 0])
+
+
+def test_duplicate_and_delete(world):
+    world.add_model(box_robot('r'))
+    with pytest.raises(ModelError, match='already exists'):
+        world.add_model(box_robot('r'))
+    world.delete_model('r')
+    assert 'r' not in world.models
+    with pytest.raises(KeyError):
+        world.delete_model('r')
+
+
+def test_office_world_loads_with_phone(world):
+    import os
+    from simvid.urdf import load_urdf_file
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    world.load_world_file(os.path.join(root, 'simvid', 'worlds', 'office.world'))
+    world.add_model(load_urdf_file(os.path.join(root, 'simvid', 'urdf',
+                                                'mobile_device.urdf.xacro')),
+                    pose=Pose((3.288, -2.11, 1.0)))
+    names = [p.spec.filename for p in world.plugins['mobile_device']]
+    assert 'libgazebo_ros_camera.so' in names and 'libgazebo_ros_video.so' in names
+    world.step(50)
+    assert world.model_state('mobile_device')[0].p == pytest.approx([3.288, -2.11, 1.0], abs=1e-6)

@@ -102,10 +102,13 @@ int run_pub(const std::string &topic, int argc, char **argv)
 struct SubStats {
     long frames = 0, tick_frames = 0;
     double lat_sum = 0, tick_lat = 0;
+    ros::WallTime first, last;
     std::string shape;
     void cb(const sensor_msgs::ImageConstPtr &m)
     {
         double lat = (ros::Time::now() - m->header.stamp).toSec();
+        last = ros::WallTime::now();
+        if (frames == 0) first = last;
         frames++;
         tick_frames++;
         lat_sum += lat;
@@ -139,8 +142,9 @@ int run_sub(const std::string &topic, int argc, char **argv)
         }
     }
     double el = (ros::WallTime::now() - t0).toSec();
+    double span = st.frames > 1 ? (st.last - st.first).toSec() : 0.0;   // from the first frame on
     std::printf("stats frames=%ld elapsed=%.3f fps=%.2f latency_ms=%.3f\n", st.frames, el,
-                el > 0 ? st.frames / el : 0.0, st.frames ? 1000.0 * st.lat_sum / st.frames : 0.0);
+                span > 0 ? (st.frames - 1) / span : 0.0, st.frames ? 1000.0 * st.lat_sum / st.frames : 0.0);
     return 0;
 }
 

@@ -419,9 +419,11 @@ static void pub_connect(tr_sub *s, pub *p)
     if (!tr_header_get(&h, "callerid", p->peer, sizeof p->peer)) copy_str(p->peer, sizeof p->peer, "?");
     free(hb);
 
-    int one = 1, rcv = 4 << 20;
+    /* no SO_RCVBUF: setting it caps the buffer at net.core.rmem_max (208 KiB by default)
+     * and switches off the kernel's autotuning, so a 900 KB frame would need several
+     * round trips through the publisher's poll loop */
+    int one = 1;
     setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv);
     p->fd = fd;
     p->lenhave = p->have = 0;
     p->need = 0;

@@ -105,7 +105,8 @@ int main(int argc, char **argv)
     if (!s) { fprintf(stderr, "tinyros_echo: %s\n", err); return 1; }
     uint8_t *nv21 = cam ? (uint8_t *)malloc(tr_nv21_size(nv_w, nv_h)) : NULL;
 
-    double t0 = mono_s(), tick = t0, lat_sum = 0, lat_all = 0;
+    double t0 = mono_s(), tick = t0, lat_sum = 0, lat_all = 0, t_first = -1, t_last = -1;
+    uint64_t received_first = 0;
     long frames = 0, tick_frames = 0, lat_n = 0;
     char shape[160] = "";
     int rc = 0;
@@ -117,6 +118,13 @@ int main(int argc, char **argv)
         if (w < 0) { fprintf(stderr, "tinyros_echo: subscription ended\n"); rc = 3; break; }
         now = mono_s();
         if (w == 1) {
+            if (t_first < 0) {
+                tr_stats st0;
+                tr_get_stats(s, &st0);
+                t_first = now;
+                received_first = st0.frames;
+            }
+            t_last = now;
             frames++;
             tick_frames++;
             double lat = wall_s() - (img.stamp_sec + img.stamp_nsec * 1e-9);
@@ -165,10 +173,13 @@ int main(int argc, char **argv)
     if (stats) {
         tr_stats st;
         tr_get_stats(s, &st);
+        /* rates from the first frame on, so start-up time does not count */
+        double span = t_last - t_first;
         printf("stats frames=%ld received=%llu dropped=%llu bad_frames=%llu errors=%llu elapsed=%.3f fps=%.2f "
-               "latency_ms=%.3f\n", frames, (unsigned long long)st.frames, (unsigned long long)st.dropped,
-               (unsigned long long)st.bad_frames, (unsigned long long)st.errors, elapsed,
-               elapsed > 0 ? frames / elapsed : 0.0, lat_n ? 1000.0 * lat_all / lat_n : 0.0);
+               "received_fps=%.2f latency_ms=%.3f\n", frames, (unsigned long long)st.frames,
+               (unsigned long long)st.dropped, (unsigned long long)st.bad_frames, (unsigned long long)st.errors,
+               elapsed, span > 0 ? (frames - 1) / span : 0.0,
+               span > 0 ? (double)(st.frames - received_first) / span : 0.0, lat_n ? 1000.0 * lat_all / lat_n : 0.0);
     }
     if (cam) tr_camera_close(cam);
     else tr_close(s);

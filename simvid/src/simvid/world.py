@@ -285,6 +285,9 @@ class World(object):
                 except Exception:  # noqa: BLE001
                     pass
         self.plugins.clear()
+        close = getattr(self.physics, 'close', None)
+        if close is not None:
+            close()   # frees Bullet's native client now, not at garbage collection
 
 
 def default_world_path():

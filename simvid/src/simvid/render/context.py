@@ -175,8 +175,11 @@ class Context(object):
         return out
 
     def read_rgb(self, width, height):
-        """The bound target's colour as HxWx3 uint8, row 0 = top of the image."""
-        return np.ascontiguousarray(self.read_rgb_raw(width, height)[::-1])
+        """The bound target's colour as HxWx3 uint8, row 0 = top of the image. (Reads RGBA:
+        llvmpipe's RGB readback is several times slower than RGBA plus a conversion.)"""
+        import cv2
+        rgba = self.read_rgba_raw(width, height)
+        return cv2.cvtColor(rgba[::-1], cv2.COLOR_RGBA2RGB)
 
     def read_depth_raw(self, width, height, out=None):
         """Depth buffer values 0..1 as HxW float32, GL row order."""

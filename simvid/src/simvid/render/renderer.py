@@ -138,6 +138,7 @@ class Renderer(object):
         self.background = DEFAULT_BACKGROUND
         self._trash = []               # GL buffers to delete in the render thread
         self._rgba_bufs = {}
+        self.sort_items = True
         self.frames = 0
 
     # -- scene ------------------------------------------------------------------------------
@@ -430,6 +431,14 @@ class Renderer(object):
         for items in self._items.values():
             for it in items:
                 (transparent if it.transparent else opaque).append(it)
+        # near to far: llvmpipe skips shading of fragments behind what is already drawn;
+        # planes (the ground) last, they are under everything
+        def dist(it):
+            c = V.dot(it.world[:, 3])
+            return (it.mesh.double_sided and not it.mesh.parts, c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
+        if self.sort_items:
+            opaque.sort(key=dist)
+            transparent.sort(key=dist, reverse=True)
         dyn_items = {}
         for key, d in self._dyn.items():
             if d.active and d.tex is not None:

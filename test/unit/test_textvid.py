@@ -200,6 +200,25 @@ def test_small_images_are_enlarged():
             assert np.abs(px - RGB[r, c]).max() <= 30, (r, c, px)
 
 
+def test_big_images_are_averaged_not_aliased():
+    # a 2x2-pixel checkerboard shrunk 3.9x: plain sampling would give black/white moire;
+    # averaging gives an even mid gray
+    tex, _ = _tex(307, 512)
+    yy, xx = np.mgrid[0:2000, 0:1150]
+    board = np.where(((yy // 2) + (xx // 2)) % 2 == 0, 255, 0).astype(np.uint8)
+    assert tex.set_array(board, 'mono8')
+    out = tex.image.astype(int)
+    assert out.shape == (512, 307, 3)
+    assert abs(out.mean() - 127.5) < 3 and out.std() < 12, (out.mean(), out.std())
+    # and a large colour image keeps its colours in the right places
+    big = np.zeros((2000, 1200, 3), np.uint8)
+    big[:1000] = (200, 10, 10)
+    big[1000:] = (10, 10, 200)
+    assert tex.set_array(big[:, :, ::-1], 'bgr8')
+    out = tex.image
+    assert (out[:250] == (200, 10, 10)).all() and (out[262:] == (10, 10, 200)).all()
+
+
 def test_texture_size_limits():
     with pytest.raises(ValueError):
         VideoTexture(0, 10)

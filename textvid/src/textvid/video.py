@@ -36,7 +36,7 @@ import threading
 
 import numpy as np
 
-from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array, rgb_from_array
+from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array
 from simvid.plugins import Plugin, PluginError, register
 
 __all__ = ['VideoTexture', 'VideoPlugin', 'ENCODINGS', 'FACES', 'BLUE', 'DEFAULT_SIZE']
@@ -106,19 +106,37 @@ class VideoTexture(object):
         self.logger('%s: %s; keeping the last image' % (self.name, text))
         return False
 
-    def scale(self, rgb):
-        """HxWx3 RGB -> the texture's size (area averaging when shrinking)."""
-        if rgb.shape[0] == self.height and rgb.shape[1] == self.width:
-            return np.array(rgb, dtype=np.uint8, order='C', copy=True)
+    def scale(self, img):
+        """HxW(xC) uint8 -> the texture's size, same channels. Enlarging and moderate
+        shrinking interpolate linearly; a shrink by more than 2 first averages whole blocks
+        of pixels (OpenCV's fast integer-factor area path), so nothing aliases."""
         import cv2
-        shrink = rgb.shape[0] >= self.height and rgb.shape[1] >= self.width
-        return cv2.resize(np.ascontiguousarray(rgb), (self.width, self.height),
-                          interpolation=cv2.INTER_AREA if shrink else cv2.INTER_LINEAR)
+        img = np.ascontiguousarray(img)
+        h, w = img.shape[:2]
+        if (h, w) == (self.height, self.width):
+            return img.copy()
+        kx, ky = w // self.width, h // self.height
+        if kx >= 2 or ky >= 2:
+            kx, ky = max(kx, 1), max(ky, 1)
+            img = cv2.resize(img, (w // kx, h // ky), interpolation=cv2.INTER_AREA)
+            if img.shape[:2] == (self.height, self.width):
+                return img
+        return cv2.resize(img, (self.width, self.height), interpolation=cv2.INTER_LINEAR)
 
-    def _set(self, rgb, source):
-        scaled = self.scale(rgb)
+    _TO_RGB = {'bgr8': 'COLOR_BGR2RGB', 'rgba8': 'COLOR_RGBA2RGB', 'bgra8': 'COLOR_BGRA2RGB',
+               'mono8': 'COLOR_GRAY2RGB'}
+
+    def _set(self, arr, norm, source):
+        import cv2
+        small = self.scale(arr)              # scale first: fewer pixels to convert
+        if small.ndim == 3 and small.shape[2] == 1:
+            small = small[:, :, 0]
+        if norm == 'rgb8':
+            rgb = small
+        else:
+            rgb = cv2.cvtColor(small, getattr(cv2, self._TO_RGB[norm]))
         with self._lock:
-            self._image = scaled
+            self._image = rgb
             self._dirty = True
             self.source = source
             self.frames += 1
@@ -138,11 +156,7 @@ class VideoTexture(object):
             return self._error('image with %d channels cannot be %r' % (channels, encoding))
         norm = {'8UC1': 'mono8', '8SC1': 'mono8', '8UC3': 'bgr8', '8SC3': 'bgr8',
                 '8UC4': 'bgra8', '8SC4': 'bgra8'}.get(encoding, encoding)
-        try:
-            rgb = rgb_from_array(arr, norm)
-        except UnsupportedEncoding as e:
-            return self._error(str(e))
-        return self._set(rgb, source)
+        return self._set(arr, norm, source)
 
     def set_image_msg(self, msg):
         """Show a sensor_msgs/Image."""

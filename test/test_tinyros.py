@@ -373,3 +373,56 @@ def test_hostile_publisher(master, build, request):
     for f in frames:
         assert f[8] in pub.sent_crcs and f[1].startswith('valid_')
     assert pub.tcp_connections[:len(hp.HOSTILE_TCP)] == [name for name, _ in hp.HOSTILE_TCP]
+
+
+def _raw_http(uri, payload, timeout=5):
+    host, port = uri[len('http://'):].rstrip('/').rsplit(':', 1)
+    with socket.create_connection((host, int(port)), timeout=timeout) as c:
+        c.sendall(payload)
+        c.shutdown(socket.SHUT_WR)
+        data = b''
+        while True:
+            chunk = c.recv(65536)
+            if not chunk:
+                return data
+            data += chunk
+
+
+def test_slave_api_and_bad_requests(master):
+    """The node's own XML-RPC server: the slave API calls rosnode/rostopic and the master
+    use, and garbage requests each logged once while frames keep flowing."""
+    pub = _rospy_pub(master, '/tr_slave', '--width', '32', '--height', '24', '--rate', '30')
+    echo = Proc([ECHO, '/tr_slave', '-v', '-q', '-t', '40', '--caller-id', '/tr_slave_echo'], master)
+    try:
+        assert echo.wait_for(lambda ls: len(_frames(ls)) >= 3, 20), echo.err
+        master_proxy = xmlrpc.client.ServerProxy(master['ROS_MASTER_URI'])
+        code, _, node_uri = master_proxy.lookupNode('/test', '/tr_slave_echo')
+        assert code == 1 and node_uri.startswith('http://localhost:')
+        node = xmlrpc.client.ServerProxy(node_uri)
+        assert node.getPid('/test') == [1, '', echo.p.pid]
+        assert node.getSubscriptions('/test')[2] == [['/tr_slave', 'sensor_msgs/Image']]
+        assert node.getPublications('/test')[2] == []
+        assert node.getMasterUri('/test')[2] == master['ROS_MASTER_URI']
+        bus = node.getBusInfo('/test')[2]
+        assert len(bus) == 1 and bus[0][3] == 'TCPROS' and bus[0][4] == '/tr_slave'
+        assert node.publisherUpdate('/test', '/other_topic', [])[0] == 0
+        assert node.publisherUpdate('/test', '/tr_slave', 'not a list')[0] == -1
+        assert node.noSuchMethod('/test')[0] == -1
+        # garbage on the wire: no answer or an error answer, never a dead node
+        _raw_http(node_uri, b'\x00\xff garbage\r\n\r\n')
+        _raw_http(node_uri, b'POST / HTTP/1.0\r\nContent-Length: 99999999\r\n\r\n')
+        ans = _raw_http(node_uri, b'POST / HTTP/1.0\r\nContent-Length: 14\r\n\r\n<methodCall/>x')
+        assert b'<int>-1</int>' in ans
+        n = len(_frames(echo.lines))
+        assert node.getPid('/test')[2] == echo.p.pid
+        assert echo.wait_for(lambda ls: len(_frames(ls)) >= n + 10, 10), 'frames stopped after bad requests'
+    finally:
+        echo.stop(signal.SIGINT)
+        pub.stop()
+    assert echo.p.returncode == 0
+    warns = [x for x in echo.err if 'XML-RPC server' in x]
+    assert any('not an HTTP POST request' in x for x in warns), echo.err
+    assert any('larger than' in x for x in warns), echo.err
+    assert any('XML-RPC parse error' in x for x in warns), echo.err
+    assert any('unknown method noSuchMethod' in x for x in warns), echo.err
+    assert any('publisherUpdate with bad parameters' in x for x in echo.err), echo.err

@@ -60,7 +60,7 @@ struct tr_sub {
     int wake[2];
     pthread_t th;
     int th_started;
-    volatile int stop;    /* set by tr_close (under mu) */
+    int stop;             /* set by tr_close; read and written under mu */
     int shutdown;         /* master asked us to shut down */
 
     pthread_mutex_t mu;
@@ -702,15 +702,23 @@ static int serve_slave(tr_sub *s, int fd, xr_value *update)
 }
 
 /* ---- I/O thread -------------------------------------------------------------------------------------- */
+static int stopping(tr_sub *s)
+{
+    pthread_mutex_lock(&s->mu);
+    int r = s->stop || s->shutdown;
+    pthread_mutex_unlock(&s->mu);
+    return r;
+}
+
 static void *io_main(void *arg)
 {
     tr_sub *s = (tr_sub *)arg;
     struct pollfd pf[2 + TR_MAX_PUBS];
     int map[2 + TR_MAX_PUBS];
-    while (!s->stop && !s->shutdown) {
+    while (!stopping(s)) {
         int64_t now = now_ms();
         /* (re)connect listed publishers that are due */
-        for (int i = 0; i < s->npubs && !s->stop; i++) {
+        for (int i = 0; i < s->npubs && !stopping(s); i++) {
             pub *p = &s->pubs[i];
             if (p->fd < 0 && p->listed && now >= p->next_try) { pub_connect(s, p); now = now_ms(); }
         }

@@ -74,6 +74,12 @@ static void test_malformed(void)
     memcpy(buf + 4, "topic", 5);
     CHECK_EQ_INT(tr_header_parse(buf, 9, &h, err, sizeof err), -1);
     CHECK_CONTAINS(err, "without '='");
+    /* peer text in a message never breaks the one-line rule */
+    tr_put_le32(buf, 6);
+    memcpy(buf + 4, "ab\ncd\r", 6);
+    CHECK_EQ_INT(tr_header_parse(buf, 10, &h, err, sizeof err), -1);
+    CHECK(strchr(err, '\n') == NULL && strchr(err, '\r') == NULL);
+    CHECK_CONTAINS(err, "ab?cd?");
     /* empty name */
     tr_put_le32(buf, 2);
     memcpy(buf + 4, "=x", 2);

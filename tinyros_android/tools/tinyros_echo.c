@@ -142,7 +142,11 @@ int main(int argc, char **argv)
         if (!quiet && now - tick >= 1.0) {
             double fps = tick_frames / (now - tick);
             if (tick_frames) {
-                if (latency) printf("%s %.1f fps latency %.2f ms\n", shape, fps, 1000.0 * lat_sum / tick_frames);
+                double ml = lat_sum / tick_frames;
+                /* sim-time stamps (use_sim_time) are not comparable with the wall clock */
+                if (latency && (ml > 3600 || ml < -3600))
+                    printf("%s %.1f fps latency n/a (stamps are not wall-clock time)\n", shape, fps);
+                else if (latency) printf("%s %.1f fps latency %.2f ms\n", shape, fps, 1000.0 * ml);
                 else printf("%s %.1f fps\n", shape, fps);
             } else {
                 tr_stats st;

@@ -236,3 +236,35 @@ def test_rate_follows_sim_time_and_set_update_rate():
     p._apply_pending(2.0)
     fired = [2.0 + k * dt for k in range(1, 2001) if p.due(2.0 + k * dt)]
     assert len(fired) in (10, 11) and p.update_rate == 5.0
+
+
+class _Pub(object):
+    def __init__(self, n=0):
+        self.n, self.sent = n, []
+
+    def get_num_connections(self):
+        return self.n
+
+    def publish(self, msg):
+        self.sent.append(msg)
+
+
+def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
+    p, world = _load(_variant(imageSize='32 24'))
+    world.ros_now = lambda: None
+    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    frames0 = world.renderer.frames
+    p.update(0.0)
+    assert p.frames == 0 and world.renderer.frames == frames0          # nobody looks
+    p._pubs['info'].n = 1                                              # camera_info only
+    p.update(0.1)
+    assert p.frames == 1 and len(p._pubs['image'].sent) == 1 and len(p._pubs['info'].sent) == 1
+    assert p._pubs['points'].sent == [] and p.last_cloud is None
+    p._pubs['info'].n = 0
+    p._pubs['points'].n = 1                                            # points only
+    p.update(0.2)
+    assert p.frames == 2 and len(p._pubs['points'].sent) == 1
+    cloud = p._pubs['points'].sent[0]
+    assert (cloud.width, cloud.height) == (32, 24)
+    assert p._pubs['image'].sent[-1].header.stamp == p._pubs['info'].sent[-1].header.stamp
+    p._pubs = {}

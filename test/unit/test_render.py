@@ -419,3 +419,21 @@ def test_context_targets_and_readback():
     assert (rgb[0] == [255, 0, 0]).all() and (rgb[1:] == [0, 0, 255]).all()
     assert np.isinf(depth).all()
     assert get_context() is ctx
+
+
+def test_obj_with_mtl_texture_uses_the_files_texture(tmp_path):
+    (tmp_path / 'quad.obj').write_text(
+        'mtllib quad.mtl\nv -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n'
+        'vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl m\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n')
+    (tmp_path / 'quad.mtl').write_text('newmtl m\nKd 1 1 1\nmap_Kd quad.png\n')
+    cv2.imwrite(str(tmp_path / 'quad.png'), _quadrants(64, 64)[:, :, ::-1])
+    r = Renderer()
+    r.set_lights([], ambient=(1, 1, 1), default_sun=False)    # full ambient: texture colours
+    vis = Visual(Geometry('mesh', filename='quad.obj'))       # no material: the file's
+    r.add_model(Model('q', links={'l': Link('l', visuals=[vis])}, base_dir=str(tmp_path)))
+    rgb = r.render(_looking_down(height=1.5)).astype(int)
+    # texture top (v = 1) lies at +y = image left, its left (u = 0) at -x = image bottom
+    assert np.abs(_colour_at(rgb, 40, 60) - [255, 0, 0]).max() < 10        # top-left: red
+    assert np.abs(_colour_at(rgb, 40, 40) - [0, 255, 0]).max() < 10        # top-right: green
+    assert np.abs(_colour_at(rgb, 60, 60) - [0, 0, 255]).max() < 10        # bottom-left: blue
+    assert np.abs(_colour_at(rgb, 60, 40) - [255, 255, 0]).max() < 10      # bottom-right

@@ -437,3 +437,27 @@ def test_obj_with_mtl_texture_uses_the_files_texture(tmp_path):
     assert np.abs(_colour_at(rgb, 40, 40) - [0, 255, 0]).max() < 10        # top-right: green
     assert np.abs(_colour_at(rgb, 60, 60) - [0, 0, 255]).max() < 10        # bottom-left: blue
     assert np.abs(_colour_at(rgb, 60, 40) - [255, 255, 0]).max() < 10      # bottom-right
+
+
+@pytest.mark.parametrize('face,up', [('+x', (0, 0, 1)), ('-x', (0, 0, 1)), ('+y', (0, 0, 1)),
+                                     ('-y', (0, 0, 1)), ('+z', (1, 0, 0)), ('-z', (-1, 0, 0))])
+def test_every_face_shows_the_image_upright_and_unmirrored(face, up):
+    """Seen from outside with the documented 'up' (Gazebo's box layout) at the top of the
+    camera image, the picture on a face reads as it is."""
+    r = Renderer()
+    r.set_lights([], ambient=(0, 0, 0), default_sun=False)
+    r.add_model(_model('cube', Geometry('box', size=(1, 1, 1)), Pose(), link='body'))
+    r.set_dynamic_texture('cube', 'body', _quadrants(), face=face)
+    n = np.zeros(3)
+    n['xyz'.index(face[1])] = 1.0 if face[0] == '+' else -1.0
+    x = -n                                   # the camera link looks at the face
+    z = np.asarray(up, float)                # and has the face's up as its up
+    m = np.eye(4)
+    m[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    m[:3, 3] = 2.5 * n
+    rgb = r.render(CameraView(100, 100, math.radians(40), Pose.from_matrix(m),
+                              background=(0, 0, 0)))
+    assert list(_colour_at(rgb, 40, 40)) == [255, 0, 0]       # top-left
+    assert list(_colour_at(rgb, 60, 40)) == [0, 255, 0]       # top-right
+    assert list(_colour_at(rgb, 40, 60)) == [0, 0, 255]       # bottom-left
+    assert list(_colour_at(rgb, 60, 60)) == [255, 255, 0]     # bottom-right

@@ -9,8 +9,10 @@ that is not closed is marked ``double_sided`` so the renderer draws both sides l
 
 Box faces and texture coordinates: a box is six faces in the order of ``BOX_FACES``; the
 image shown on a face (material texture or video texture) has its top edge towards the
-face's "up" axis and is seen unmirrored from outside: ``+z``/``-z`` faces: up = +x;
-``+x``/``-x``/``+y``/``-y`` faces: up = +z. Texture coordinate t = 0 is the image's top row.
+face's "up" axis and is seen unmirrored from outside: ``+z`` face: up = +x; ``-z``: up =
+-x; ``+x``/``-x``/``+y``/``-y`` faces: up = +z. This is the layout of Gazebo classic's box
+mesh (common::MeshManager::CreateBox), so world files textured for Gazebo look the same.
+Texture coordinate t = 0 is the image's top row.
 """
 import logging
 import math
@@ -76,7 +78,10 @@ def _face_frame(face):
     axis, sign = _AXES[face]
     n = np.zeros(3)
     n[axis] = sign
-    up = np.array([1.0, 0, 0]) if axis == 2 else np.array([0, 0, 1.0])
+    if axis == 2:
+        up = np.array([sign, 0.0, 0.0])        # +z: image top at +x; -z: at -x (as Gazebo)
+    else:
+        up = np.array([0.0, 0.0, 1.0])
     right = np.cross(up, n)
     return n, up, right
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Closed loop through the video texture: an image published to the phone display's
-image_in is rendered on the screen, a second camera films the screen, barcode_reader
+image_in is rendered on the screen (unlit: it glows in the dark room), a second camera films the screen, barcode_reader
 decodes it; the same picture loaded through load_file is decoded again; a second display
 in the same world shows its own picture from its own topics."""
 import os
@@ -50,6 +50,12 @@ class ClosedLoop(unittest.TestCase):
         rgb = w.frame_after(time.time())
         self.assertGreater(blue_fraction(rgb), 0.1, 'phone2 lost its blue')
         self.assertLess(blue_fraction(rgb), blue - 0.1, 'phone still blue')
+        # unlit: in the dark room the lit white card (top of the view) is dim, the screen's
+        # white glows at full brightness
+        gray = rgb.astype(float).mean(axis=2)
+        card = float(np.median(gray[10:50, 270:370]))
+        self.assertLess(card, 80, 'the white card is lit brightly (%.0f): room not dark' % card)
+        self.assertGreater((gray >= 240).mean(), 0.08, 'the screen does not glow')
 
         # 3. blank the screen (mono8), the code disappears
         t2 = time.time()

@@ -199,6 +199,29 @@ class VncNodeTest(unittest.TestCase):
                 os.waitpid(pid, 0)
             os.close(fd)
 
+    def test_7_password_file(self):
+        import tempfile
+        with tempfile.NamedTemporaryFile('w', suffix='.pw') as f:
+            f.write(self.pw + '\n')
+            f.flush()
+            images = Collector('/vnc_file', Image)
+            p = subprocess.Popen(self._spawn_args('vnc_file') + ['_password_file:=' + f.name],
+                                 stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                 stderr=subprocess.STDOUT)
+            try:
+                deadline = time.monotonic() + 20
+                while images.latest() is None and time.monotonic() < deadline:
+                    time.sleep(0.1)
+                self.assertIsNotNone(images.latest(), 'no image with ~password_file')
+            finally:
+                p.send_signal(signal.SIGINT)
+                try:
+                    out = p.communicate(timeout=10)[0].decode('utf-8', 'replace')
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    out = p.communicate()[0].decode('utf-8', 'replace')
+            self.assertNotIn(self.pw, out)
+
 
 if __name__ == '__main__':
     rostest.rosrun(PKG, 'vnc_image_client_rostest', VncNodeTest)

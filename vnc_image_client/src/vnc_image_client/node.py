@@ -7,6 +7,9 @@ Private parameters:
   ~password      (unset)       VNC password; read once, then deleted from the parameter
                                server. Unset and the server wants one: asked on the
                                terminal without echo when stdin is a TTY, else one error.
+  ~password_file (unset)       used when ~password is unset: a file whose first line is
+                               the password (keeps it out of launch files and roslaunch's
+                               parameter summary)
   ~publish_rate  (15)          maximum images per second
   ~frame_id      (vnc)         header.frame_id of the images
   ~encodings     (LibVNCClient's default) RFB encodings to offer, e.g. "tight zrle raw"
@@ -17,6 +20,7 @@ published when the screen changed (at most publish_rate per second); a new subsc
 immediately gets the latest image.
 """
 import getpass
+import os
 import sys
 import threading
 import time
@@ -30,6 +34,18 @@ try:
     from simvid.imageconv import array_to_image
 except ImportError:  # pragma: no cover - the stack is installed together with simvid
     array_to_image = None
+
+
+def read_password_file(path, log_error):
+    """First line of ``path`` without its line end, or None (one error line) when the file
+    cannot be read."""
+    try:
+        with open(os.path.expanduser(str(path)), 'rb') as f:
+            line = f.readline()
+    except (OSError, IOError) as e:
+        log_error('cannot read ~password_file %r: %s' % (path, e.strerror or e))
+        return None
+    return line.rstrip(b'\r\n').decode('utf-8', 'replace')
 
 
 class PasswordSource(object):
@@ -50,8 +66,10 @@ class PasswordSource(object):
         self.prompts = 0
 
     @classmethod
-    def from_param(cls, name='~password', **kw):
-        """Read and delete the parameter (also when it is empty)."""
+    def from_param(cls, name='~password', file_param='~password_file', **kw):
+        """Read and delete the parameter (also when it is empty). Without it, the first
+        line of the file named by ``~password_file`` (keeps the password out of launch
+        files and roslaunch's parameter summary)."""
         value = None
         if rospy.has_param(name):
             value = rospy.get_param(name)
@@ -60,6 +78,8 @@ class PasswordSource(object):
                 rospy.delete_param(name)
             except KeyError:
                 pass
+        elif rospy.has_param(file_param):
+            value = read_password_file(rospy.get_param(file_param), rospy.logerr)
         return cls(value, **kw)
 
     def interactive(self):

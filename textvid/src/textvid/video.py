@@ -246,7 +246,7 @@ class VideoPlugin(Plugin):
 
     def face_extent(self, box_size):
         """(width, height) in metres of the face the texture is drawn on; the renderer
-        puts the image's top edge towards +x on the z faces and towards +z on the others."""
+        puts the image's top edge along x on the z faces and towards +z on the others."""
         sx, sy, sz = (float(v) for v in box_size)
         face = {'front': '+z', 'back': '-z', 'all': '+z'}.get(self.face, self.face)
         return {'z': (sy, sx), 'x': (sy, sz), 'y': (sx, sz)}[face[1]]

@@ -818,7 +818,12 @@ tr_sub *tr_open(const tr_options *o, char *err, size_t errlen)
     s->log_level = o->log_level;
     s->listen_fd = s->wake[0] = s->wake[1] = -1;
     pthread_mutex_init(&s->mu, NULL);
-    pthread_cond_init(&s->cv, NULL);
+    /* tr_wait's timeout runs on the monotonic clock: wall-clock jumps do not stretch it */
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+    pthread_cond_init(&s->cv, &ca);
+    pthread_condattr_destroy(&ca);
 
     char e[300], host[256];
     int port;
@@ -878,7 +883,7 @@ fail:
 int tr_wait(tr_sub *s, tr_image *img, int timeout_ms)
 {
     struct timespec until;
-    clock_gettime(CLOCK_REALTIME, &until);
+    clock_gettime(CLOCK_MONOTONIC, &until);
     if (timeout_ms >= 0) {
         until.tv_sec += timeout_ms / 1000;
         until.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;

@@ -199,8 +199,8 @@ class CameraPlugin(Plugin):
         from sensor_msgs.msg import Image, CameraInfo, PointCloud2
         from std_msgs.msg import Float64
         self._pubs = {
-            'image': rospy.Publisher(self.image_topic, Image, queue_size=2),
-            'info': rospy.Publisher(self.info_topic, CameraInfo, queue_size=2),
+            'image': rospy.Publisher(self.image_topic, Image, queue_size=10),
+            'info': rospy.Publisher(self.info_topic, CameraInfo, queue_size=10),
             'points': rospy.Publisher(self.points_topic, PointCloud2, queue_size=2),
         }
         self._subs = [rospy.Subscriber(self.hfov_topic, Float64, self._on_hfov, queue_size=10),

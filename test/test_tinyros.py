@@ -315,6 +315,14 @@ def test_publisher_killed_and_restarted(master):
     assert echo.p.returncode == 0, echo.err
 
 
+def test_rosrun_finds_tinyros_echo():
+    """`rosrun mobile_device_sim tinyros_echo` reaches the compiled program (through the relay
+    in tinyros_android/nodes/, since rosrun skips the package's build/ folder)."""
+    r = _run(['rosrun', 'mobile_device_sim', 'tinyros_echo', '--help', '__name:=ignored'], timeout=60)
+    assert r.returncode == 0, r.stdout
+    assert r.stdout.startswith('usage: tinyros_echo'), r.stdout
+
+
 def test_master_absent_is_one_clear_error():
     port = _free_port()
     r = _run([ECHO, '--master', 'http://127.0.0.1:%d/' % port, '/tr_nomaster', '-t', '5'], timeout=20)

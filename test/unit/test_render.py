@@ -272,26 +272,37 @@ def _write_stl(path, tris):
         f.write('endsolid t\n')
 
 
-def _write_dae(path, tris, unit=1.0, up='Z_UP'):
+def _write_dae(path, tris, unit=1.0, up='Z_UP', colour=None):
     pos = ' '.join('%.6f' % c for c in np.asarray(tris).ravel())
     n = len(tris)
     idx = ' '.join(str(i) for i in range(3 * n))
+    mat, bind, tri_mat = '', '', ''
+    if colour is not None:
+        mat = ('<library_effects><effect id="fx"><profile_COMMON><technique sid="c"><lambert>'
+               '<diffuse><color>%g %g %g 1</color></diffuse></lambert></technique>'
+               '</profile_COMMON></effect></library_effects><library_materials>'
+               '<material id="m"><instance_effect url="#fx"/></material></library_materials>'
+               % tuple(colour))
+        bind = ('<bind_material><technique_common><instance_material symbol="s" target="#m"/>'
+                '</technique_common></bind_material>')
+        tri_mat = ' material="s"'
     doc = '''<?xml version="1.0" encoding="utf-8"?>
 <COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
  <asset><unit name="u" meter="%g"/><up_axis>%s</up_axis></asset>
+ ''' % (unit, up) + mat + '''
  <library_geometries><geometry id="g" name="g"><mesh>
   <source id="p"><float_array id="pa" count="%d">%s</float_array>
    <technique_common><accessor source="#pa" count="%d" stride="3">
     <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
    </accessor></technique_common></source>
   <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
-  <triangles count="%d"><input semantic="VERTEX" source="#v" offset="0"/><p>%s</p></triangles>
+  <triangles count="%d"%s><input semantic="VERTEX" source="#v" offset="0"/><p>%s</p></triangles>
  </mesh></geometry></library_geometries>
  <library_visual_scenes><visual_scene id="s"><node id="n" name="n">
-  <instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
+  <instance_geometry url="#g">%s</instance_geometry></node></visual_scene></library_visual_scenes>
  <scene><instance_visual_scene url="#s"/></scene>
 </COLLADA>
-''' % (unit, up, 9 * n, pos, 3 * n, n, idx)
+''' % (9 * n, pos, 3 * n, n, tri_mat, idx, bind)
     with open(path, 'w') as f:
         f.write(doc)
 
@@ -461,3 +472,18 @@ def test_every_face_shows_the_image_upright_and_unmirrored(face, up):
     assert list(_colour_at(rgb, 60, 40)) == [0, 255, 0]       # top-right
     assert list(_colour_at(rgb, 40, 60)) == [0, 0, 255]       # bottom-left
     assert list(_colour_at(rgb, 60, 60)) == [255, 255, 0]     # bottom-right
+
+
+def test_collada_colour_applies_unless_the_visual_names_a_material(tmp_path):
+    _write_dae(str(tmp_path / 'red.dae'), shapes.box((0.6, 0.6, 0.6)).positions.reshape(-1, 3, 3),
+               colour=(0.9, 0.1, 0.1))
+    r = Renderer()
+    r.set_lights([], ambient=(1, 1, 1), default_sun=False)
+    r.add_model(Model('own', links={'l': Link('l', visuals=[
+        Visual(Geometry('mesh', filename='red.dae'))])}, base_dir=str(tmp_path)))
+    c = _colour_at(r.render(_looking_down()), 49, 49)
+    assert np.abs(c - [230, 26, 26]).max() < 4, c
+    r.add_model(Model('own', links={'l': Link('l', visuals=[
+        Visual(Geometry('mesh', filename='red.dae'), material=Material((0, 0, 1, 1), name='b'))])},
+        base_dir=str(tmp_path)))                        # re-added with a URDF material
+    assert list(_colour_at(r.render(_looking_down()), 49, 49)) == [0, 0, 255]

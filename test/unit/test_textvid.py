@@ -398,6 +398,23 @@ def test_no_renderer_is_created_for_a_display_nobody_looks_at():
     assert len(renderer.calls) == 1 and renderer.calls[0][2].shape == (512, 307, 3)
 
 
+def test_load_file_topic_resolves_package_urls(monkeypatch):
+    import os
+    from std_msgs.msg import String
+    from simvid import qrassets
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    monkeypatch.setenv('ROS_PACKAGE_PATH', root)
+    model = _model()
+    model.base_dir = '/nonexistent'          # found through ROS_PACKAGE_PATH, not by luck
+    p = plugins.create(_spec('<bodyName>mobile_display</bodyName>'), model, FakeWorld())
+    p.on_load_file(String(data='package://mobile_device_sim/simvid/worlds/media/'
+                               + qrassets.CLOSED_LOOP_FILE))
+    assert p.texture.errors == 0 and p.texture.source.startswith('file:' + root)
+    p.on_load_file(String(data='  %s  ' % os.path.join(qrassets.MEDIA_DIR,
+                                                        qrassets.PAPER_FILE)))
+    assert p.texture.errors == 0 and p.texture.source.endswith(qrassets.PAPER_FILE)
+
+
 def test_two_displays_keep_their_own_images():
     world = FakeWorld()
     m1, m2 = _model('phone1'), _model('phone2')

@@ -18,7 +18,8 @@ URDF (both syntaxes of ``simvid.plugins`` load it)::
 The display is blue until the first image arrives. Then it shows the last image received on
 ``imageTopic`` (sensor_msgs/Image: rgb8, rgba8, bgra8, bgr8, mono8 and their OpenCV names
 8UC1/3/4, 8SC1/3/4 as in the thesis's table 4.3) or the last file named on ``imageLoad``
-(std_msgs/String with a path; every format OpenCV reads), scaled to the fixed texture size and
+(std_msgs/String with an absolute path, ``file://`` or ``package://`` URL; relative
+paths are relative to sim_world's working directory; every format OpenCV reads), scaled to the fixed texture size and
 drawn unlit, so it glows in the dark. An image with another encoding, or a file that is
 missing or unreadable, is reported in one log line and the display keeps its last image.
 
@@ -290,7 +291,10 @@ class VideoPlugin(Plugin):
         self.texture.set_image_msg(msg)
 
     def on_load_file(self, msg):
-        self.texture.load_file(msg.data)
+        path = (msg.data or '').strip()
+        if path.startswith(('package://', 'model://')):
+            path = self.model.resolve_path(path)
+        self.texture.load_file(path)
 
     # -- render thread ---------------------------------------------------------------------
     def update(self, sim_time):

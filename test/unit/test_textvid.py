@@ -143,6 +143,9 @@ def test_jpeg_gray_alpha_and_16bit_files(tmp_path):
     assert tex.load_file(deep)
     row = tex.image[0, :, 0].astype(int)
     assert row[0] == 0 and row[-1] == 255 and np.all(np.diff(row) >= 0)
+    dim = str(tmp_path / 'dim.png')
+    cv2.imwrite(dim, np.full((40, 60), 0x4000, np.uint16))     # a quarter of full scale
+    assert tex.load_file(dim) and (tex.image == 0x40).all()
     assert lines == []
 
 

@@ -186,7 +186,9 @@ class VideoTexture(object):
         if img is None or img.size == 0:
             return self._error('cannot read image file %r (not an image format OpenCV '
                                'reads, or damaged)' % path)
-        if img.dtype != np.uint8:      # 16-bit PNG/TIFF, float EXR ...: to 8 bit
+        if img.dtype == np.uint16:     # 16-bit PNG/TIFF: the same brightness in 8 bit
+            img = (img >> 8).astype(np.uint8)
+        elif img.dtype != np.uint8:    # float (EXR, 32-bit TIFF), 8-bit signed: stretch
             img = cv2.normalize(img, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
         if img.ndim == 2 or img.shape[2] == 1:
             enc = 'mono8'

@@ -2,7 +2,6 @@
 """rostest: kinect4skype.launch's chain. The flycam's sim camera cloud rendered by pcl2image
 from the camera's own viewpoint reproduces the camera's image (same pinhole model, dense
 cloud), and the world's video texture (the phone display) subscribes to the result."""
-import time
 import unittest
 
 import numpy as np

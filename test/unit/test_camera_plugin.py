@@ -268,3 +268,33 @@ def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
     assert (cloud.width, cloud.height) == (32, 24)
     assert p._pubs['image'].sent[-1].header.stamp == p._pubs['info'].sent[-1].header.stamp
     p._pubs = {}
+
+
+def test_depth_camera_publishes_depth_image_and_cutoffs():
+    xml = _variant(imageSize='40 30', depthImageTopicName='depth/image_raw',
+                   pointCloudCutoff='0.1', pointCloudCutoffMax='0.45')
+    root = ET.fromstring(xml)
+    root.find('gazebo_ros_camera').set('plugin', 'libgazebo_ros_openni_kinect.so')
+    p, world = _load(ET.tostring(root, encoding='unicode'))
+    assert p.depth_topic == '/mobile_device/depth/image_raw'
+    assert p.depth_info_topic == '/mobile_device/depth/camera_info'
+    assert p.cutoff == (0.1, 0.45)
+    world.ros_now = lambda: None
+    p._pubs = {k: _Pub() for k in ('image', 'info', 'points', 'depth', 'depth_info')}
+    p._pubs['depth'].n = 1
+    p.update(0.0)
+    d = p._pubs['depth'].sent[0]
+    assert (d.encoding, d.width, d.height, d.step) == ('32FC1', 40, 30, 160)
+    z = np.frombuffer(d.data, '<f4').reshape(30, 40)
+    # the red square 0.489 m under the camera fills the centre of the image
+    assert abs(z[15, 20] - 0.489) < 0.002
+    assert p._pubs['points'].sent == []                     # nobody asked for points
+    p._pubs['points'].n = 1
+    p.update(0.1)
+    pts = np.frombuffer(p._pubs['points'].sent[0].data, np.float32).reshape(30, 40, 4)
+    assert np.isnan(pts[:, :, 2]).all()                     # everything beyond 0.45 m: cut
+    # a plain camera has no depth topic unless it names one
+    q, _ = _load(_variant(imageSize='8 6'))
+    assert q.depth_topic is None
+    with pytest.raises(plugins.PluginError, match='pointCloudCutoffMax'):
+        _load(_variant(pointCloudCutoff='1', pointCloudCutoffMax='0.5'))

@@ -329,6 +329,27 @@ class SimCamera(object):
         from .imageconv import array_to_image
         return array_to_image(rgb, 'rgb8', stamp=stamp, frame_id=frame_id)
 
-    def cloud_msg(self, rgb, depth, stamp=None, frame_id=''):
-        xyz = points_from_depth(depth, self.distorter.rays, self.far)
+    def cloud_msg(self, rgb, depth, stamp=None, frame_id='', cutoff=(0.0, float('inf'))):
+        """Organized PointCloud2 of the published image's pixels; points nearer than
+        cutoff[0] or farther than cutoff[1] (or the far clip) are NaN."""
+        d = depth
+        if cutoff[0] > 0:
+            d = np.where(depth < cutoff[0], np.inf, depth).astype(np.float32)
+        xyz = points_from_depth(d, self.distorter.rays, min(self.far, cutoff[1]))
         return point_cloud2(xyz, rgb, stamp, frame_id)
+
+    def depth_msg(self, depth, stamp=None, frame_id=''):
+        """sensor_msgs/Image 32FC1 of the depth (metres along the optical axis), NaN where
+        nothing was seen (REP 118)."""
+        from sensor_msgs.msg import Image
+        d = np.where(np.isfinite(depth) & (depth < self.far), depth, np.nan).astype('<f4')
+        msg = Image()
+        if stamp is not None:
+            msg.header.stamp = stamp
+        msg.header.frame_id = frame_id
+        msg.height, msg.width = d.shape
+        msg.encoding = '32FC1'
+        msg.is_bigendian = 0
+        msg.step = 4 * d.shape[1]
+        msg.data = d.tobytes()
+        return msg

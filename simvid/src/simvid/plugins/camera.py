@@ -18,7 +18,11 @@ Reads both URDF syntaxes::
 Publishes ``image_raw`` (rgb8), ``camera_info`` (same stamp, every frame) and ``points``
 (PointCloud2, only while subscribed), all stamped with sim time; subscribes ``set_hfov``
 (radians) and ``set_update_rate`` (Hz) next to the image topic. Renders only while someone
-subscribes. The camera looks along the link's +x (z up in the image); points are in the
+subscribes. Registered as ``libgazebo_ros_openni_kinect.so`` / ``libgazebo_ros_depth_camera.so``
+it also publishes ``depth/image_raw`` (32FC1, metres along the optical axis, NaN where
+nothing is seen; ``depthImageTopicName``) and ``depth/camera_info``
+(``depthImageCameraInfoTopicName``); ``pointCloudCutoff``/``pointCloudCutoffMax`` limit the
+range of the points. The camera looks along the link's +x (z up in the image); points are in the
 optical frame (x right, y down, z forward) of ``frameName``.
 """
 import logging
@@ -188,11 +192,30 @@ class CameraPlugin(Plugin):
         self.image_topic = topic(('imageTopicName',), 'image_raw')
         self.info_topic = topic(('cameraInfoTopicName',), 'camera_info')
         self.points_topic = topic(('pointCloudTopicName',), 'points')
+        # depth cameras (openni_kinect / depth_camera names, or any camera that names a
+        # depthImageTopicName): 32FC1 depth in metres along the optical axis + its info
+        depth_default = 'depth/image_raw' if self._is_depth_camera() else None
+        d = self.param('depthImageTopicName', default=depth_default)
+        self.depth_topic = topic(('depthImageTopicName',), d) if d else None
+        self.depth_info_topic = topic(('depthImageCameraInfoTopicName',),
+                                      'depth/camera_info') if d else None
+        lo = self._number(self.param('pointCloudCutoff', default='0'), '<pointCloudCutoff>',
+                          positive=True)
+        hi = self._number(self.param('pointCloudCutoffMax', default='0'),
+                          '<pointCloudCutoffMax>', positive=True)
+        if hi and hi <= lo:
+            raise PluginError('%s: <pointCloudCutoffMax> %g must be more than <pointCloudCutoff>'
+                              ' %g' % (self.label, hi, lo))
+        self.cutoff = (lo, hi or float('inf'))
         base = self.image_topic.rsplit('/', 1)[0]
         self.hfov_topic = base + '/set_hfov'
         self.rate_topic = base + '/set_update_rate'
         if getattr(self.world, 'ros_enabled', False):
             self._make_ros()
+
+    def _is_depth_camera(self):
+        name = self.spec.filename or ''
+        return 'openni_kinect' in name or 'depth_camera' in name
 
     def _make_ros(self):
         import rospy
@@ -203,6 +226,10 @@ class CameraPlugin(Plugin):
             'info': rospy.Publisher(self.info_topic, CameraInfo, queue_size=10),
             'points': rospy.Publisher(self.points_topic, PointCloud2, queue_size=2),
         }
+        if self.depth_topic:
+            self._pubs['depth'] = rospy.Publisher(self.depth_topic, Image, queue_size=2)
+            self._pubs['depth_info'] = rospy.Publisher(self.depth_info_topic, CameraInfo,
+                                                       queue_size=2)
         self._subs = [rospy.Subscriber(self.hfov_topic, Float64, self._on_hfov, queue_size=10),
                       rospy.Subscriber(self.rate_topic, Float64, self._on_rate, queue_size=10)]
         rospy.loginfo('camera %s: %dx%d, hfov %.1f deg (f = %.2f px), %s Hz sim time, '
@@ -270,35 +297,48 @@ class CameraPlugin(Plugin):
 
     # -- frames ------------------------------------------------------------------------------
     def wanted(self):
-        """(image or info wanted, points wanted) by subscribers."""
+        """(anything wanted, depth wanted) by subscribers: the image, camera_info, points or
+        (depth cameras) the depth image or its info."""
         if not self._pubs:
             return True, self.force_render
-        pts = self._pubs['points'].get_num_connections() > 0
-        img = (self._pubs['image'].get_num_connections() > 0
-               or self._pubs['info'].get_num_connections() > 0)
-        return img or pts or self.force_render, pts
+
+        def subs(*keys):
+            return any(k in self._pubs and self._pubs[k].get_num_connections() > 0
+                       for k in keys)
+        depth = subs('points', 'depth', 'depth_info')
+        img = subs('image', 'info')
+        return img or depth or self.force_render, depth
 
     def update(self, sim_time):
         self._apply_pending(sim_time)
-        want, want_points = self.wanted()
+        want, want_depth = self.wanted()
         if not want:
             return
         pose = self.world.link_pose(self.model.name, self.link)
-        rgb, depth = self.camera.render(self.world.renderer, pose, depth=want_points)
+        rgb, depth = self.camera.render(self.world.renderer, pose, depth=want_depth)
         stamp = self.world.ros_now() if self._pubs else None
         img = self.camera.image_msg(rgb, stamp, self.frame_id)
         info = self.camera.camera_info(stamp, self.frame_id)
-        cloud = None
-        if want_points:
-            cloud = self.camera.cloud_msg(rgb, depth, stamp, self.frame_id)
+        cloud = depth_img = None
+        pubs = self._pubs
+        if want_depth:
+            if not pubs or pubs['points'].get_num_connections() > 0:
+                cloud = self.camera.cloud_msg(rgb, depth, stamp, self.frame_id, self.cutoff)
+            if 'depth' in pubs and (pubs['depth'].get_num_connections() > 0
+                                    or pubs['depth_info'].get_num_connections() > 0):
+                depth_img = self.camera.depth_msg(depth, stamp, self.frame_id)
         self.frames += 1
         self.last_image, self.last_info, self.last_cloud = img, info, cloud
+        self.last_depth = depth_img
         self.last_rgb = rgb
-        if self._pubs:
-            self._pubs['image'].publish(img)
-            self._pubs['info'].publish(info)
+        if pubs:
+            pubs['image'].publish(img)
+            pubs['info'].publish(info)
             if cloud is not None:
-                self._pubs['points'].publish(cloud)
+                pubs['points'].publish(cloud)
+            if depth_img is not None:
+                pubs['depth'].publish(depth_img)
+                pubs['depth_info'].publish(info)
 
     def shutdown(self):
         for s in self._subs:

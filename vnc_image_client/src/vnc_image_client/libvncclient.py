@@ -262,6 +262,8 @@ def lib():
         _libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6')
         _libc.strdup.argtypes = [ctypes.c_char_p]
         _libc.strdup.restype = ctypes.c_void_p
+        _libc.free.argtypes = [ctypes.c_void_p]
+        _libc.free.restype = None
         _install_log_hooks(L)
         _lib = L
         return L
@@ -271,6 +273,12 @@ def strdup(data):
     """A malloc'd copy of ``data`` (bytes) that LibVNCClient may free()."""
     lib()
     return _libc.strdup(data)
+
+
+def free(addr):
+    """libc free() of memory LibVNCClient allocated and left to its user."""
+    lib()
+    _libc.free(addr)
 
 
 # --- LibVNCClient's log output -----------------------------------------------------

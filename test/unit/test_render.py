@@ -487,3 +487,27 @@ def test_collada_colour_applies_unless_the_visual_names_a_material(tmp_path):
         Visual(Geometry('mesh', filename='red.dae'), material=Material((0, 0, 1, 1), name='b'))])},
         base_dir=str(tmp_path)))                        # re-added with a URDF material
     assert list(_colour_at(r.render(_looking_down()), 49, 49)) == [0, 0, 255]
+
+
+def test_state_left_by_other_users_of_the_context_does_not_leak_in():
+    from OpenGL import GL
+    r = Renderer()
+    r.add_model(_model('ball', Geometry('sphere', radius=0.3), Pose((2, 0, 0)), RED))
+    view = CameraView(64, 48, math.radians(60), background=(0, 0, 0))
+    ref = r.render(view)
+    ctx = get_context()
+    with ctx:                               # e.g. pcl2image drawing points in between
+        ctx.target(64, 48)
+        GL.glEnable(GL.GL_SCISSOR_TEST)
+        GL.glScissor(0, 0, 1, 1)
+        GL.glDisable(GL.GL_DEPTH_TEST)
+        GL.glDisable(GL.GL_COLOR_MATERIAL)
+        GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_LINE)
+        GL.glColorMask(GL.GL_FALSE, GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE)
+    try:
+        assert np.array_equal(r.render(view), ref)
+    finally:
+        with ctx:
+            GL.glDisable(GL.GL_SCISSOR_TEST)
+            GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
+            GL.glColorMask(GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE)

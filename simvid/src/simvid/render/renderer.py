@@ -367,7 +367,16 @@ class Renderer(object):
             d.active = True
 
     def _setup_state(self):
+        """Every piece of GL state the drawing relies on (the context is shared with other
+        components that set their own)."""
         from OpenGL import GL
+        GL.glUseProgram(0)
+        for cap in (GL.GL_SCISSOR_TEST, GL.GL_STENCIL_TEST, GL.GL_ALPHA_TEST,
+                    GL.GL_POLYGON_OFFSET_FILL, GL.GL_NORMALIZE):
+            GL.glDisable(cap)
+        GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
+        GL.glColorMask(GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE)
+        GL.glActiveTexture(GL.GL_TEXTURE0)
         GL.glEnable(GL.GL_DEPTH_TEST)
         GL.glDepthFunc(GL.GL_LEQUAL)
         GL.glDepthMask(GL.GL_TRUE)

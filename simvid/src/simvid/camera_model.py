@@ -113,7 +113,7 @@ def distort_normalized(x, y, D):
     return xd, yd
 
 
-def undistort_normalized(xd, yd, D, iterations=40):
+def undistort_normalized(xd, yd, D, iterations=20):
     """Invert ``distort_normalized`` by fixed-point iteration plus Newton polish; returns
     (x, y, ok) with ok False where the inverse does not exist (beyond the lens's fold)."""
     k1, k2, t1, t2, k3 = D
@@ -288,9 +288,18 @@ class SimCamera(object):
         self._D = tuple(distortion)
         self._set(Intrinsics(width, height, hfov, focal_length, cx, cy, distortion))
 
+    _distorters = {}     # Intrinsics.key() -> Distorter (maps computed once per parameter set)
+
     def _set(self, intr):
         self.intr = intr
-        self.distorter = Distorter(intr)
+        key = intr.key()
+        d = SimCamera._distorters.get(key)
+        if d is None:
+            d = Distorter(intr)
+            if len(SimCamera._distorters) > 16:
+                SimCamera._distorters.clear()
+            SimCamera._distorters[key] = d
+        self.distorter = d
 
     @property
     def hfov(self):

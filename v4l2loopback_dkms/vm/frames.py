@@ -1,0 +1,67 @@
+"""Known test frames shared by the VM publisher and the checks: frame k of a cycle of
+``N`` distinct RGB pictures (seeded noise shifted and xor'ed by k), and their expected
+output bytes from the unit-tested converter (simvid.yuv), hashed whole and per half so a
+frame whose top and bottom come from different pictures (a torn frame) is recognised."""
+import hashlib
+
+import numpy as np
+
+N = 24
+
+
+def base(width, height):
+    rng = np.random.RandomState(20111)
+    return rng.randint(0, 256, (height, width, 3)).astype(np.uint8)
+
+
+def picture(k, width, height, _cache={}):
+    key = (width, height)
+    if key not in _cache:
+        _cache[key] = base(width, height)
+    b = _cache[key]
+    k %= N
+    return np.ascontiguousarray(np.roll(b, 7 * k, axis=1) ^ np.uint8((37 * k) & 255))
+
+
+def digest(data):
+    return hashlib.sha1(data).hexdigest()
+
+
+class Expected(object):
+    """Hashes of the expected output frames: whole, top half, bottom half -> k."""
+
+    def __init__(self, width, height, pixel_format='yuyv'):
+        from simvid.yuv import Converter
+        conv = Converter(width, height, pixel_format)
+        self.size = conv.frame_size
+        self.half = self.size // 2
+        self.whole, self.top, self.bottom = {}, {}, {}
+        self.frames = []
+        for k in range(N):
+            data = conv.rgb_to_bytes(picture(k, width, height))
+            self.frames.append(data)
+            self.whole[digest(data)] = k
+            self.top[digest(data[:self.half])] = k
+            self.bottom[digest(data[self.half:])] = k
+        self.black = digest(conv.rgb_to_bytes(np.zeros((height, width, 3), np.uint8)))
+
+    def classify(self, data, top=None):
+        """-> ('black'|'frame'|'torn'|'garbage', k). ``top``: bytes of the top half read
+        earlier than ``data`` (a slow reader), else taken from ``data``."""
+        if len(data) < self.size:
+            return 'garbage', None
+        data = data[:self.size]
+        if top is None:
+            d = digest(data)
+            if d == self.black:
+                return 'black', None
+            if d in self.whole:
+                return 'frame', self.whole[d]
+            top = data[:self.half]
+        kt = self.top.get(digest(top[:self.half]))
+        kb = self.bottom.get(digest(data[self.half:]))
+        if kt is not None and kt == kb:
+            return 'frame', kt
+        if kt is not None and kb is not None:
+            return 'torn', (kt, kb)
+        return 'garbage', None

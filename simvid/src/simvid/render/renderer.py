@@ -575,8 +575,10 @@ def _upload_texture(tid, img, mipmap=True, replace=False):
     GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
     if mipmap:
         GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
+        # Ogre's (Gazebo's) default "bilinear": linear within the nearest mip level; on
+        # llvmpipe 35-45 % faster per frame than trilinear for the QR world
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER,
-                           GL.GL_LINEAR_MIPMAP_LINEAR)
+                           GL.GL_LINEAR_MIPMAP_NEAREST)
     else:
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR)
     return tid

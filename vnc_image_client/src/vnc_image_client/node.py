@@ -13,11 +13,13 @@ Private parameters:
   ~publish_rate  (15)          maximum images per second
   ~frame_id      (vnc)         header.frame_id of the images
   ~encodings     (LibVNCClient's default) RFB encodings to offer, e.g. "tight zrle raw"
+  ~republish_period (1.0)      while the screen does not change, the latest image is
+                               published again after this many seconds (0 = never)
 
 Two threads as in the thesis: VncReceiver handles the server's messages, the publisher
 thread copies the framebuffer under the shared lock and publishes it. An image is
-published when the screen changed (at most publish_rate per second); a new subscriber
-immediately gets the latest image.
+published when the screen changed (at most publish_rate per second) and repeated every
+~republish_period while it does not; a new subscriber immediately gets the latest image.
 """
 import getpass
 import os
@@ -108,8 +110,9 @@ class PasswordSource(object):
 class ImagePublisherThread(threading.Thread):
     """Copies the framebuffer under the client's lock and publishes rgba8 images."""
 
-    def __init__(self, client, topic, rate, frame_id='vnc'):
+    def __init__(self, client, topic, rate, frame_id='vnc', republish=1.0):
         threading.Thread.__init__(self, name='vnc-publisher')
+        self.republish = republish
         self.daemon = True
         self.client = client
         self.period = 1.0 / rate if rate and rate > 0 else 0.0
@@ -137,9 +140,19 @@ class ImagePublisherThread(threading.Thread):
         last_seq = self.client.seq
         buf = None
         next_t = 0.0
+        last_pub = time.monotonic()
         while not rospy.is_shutdown():
-            seq = self.client.wait_update(last_seq, 0.5)
+            seq = self.client.wait_update(last_seq, 0.25)
             if seq <= last_seq:
+                # a static screen: repeat the latest image now and then, so subscribers that
+                # missed it (or dropped it while starting up) still get the current screen
+                if self.republish and self.latest is not None and \
+                        time.monotonic() - last_pub >= self.republish and self.client.valid:
+                    with self._latest_lock:
+                        msg = self.latest
+                        msg.header.stamp = rospy.Time.now()
+                    self.pub.publish(msg)
+                    last_pub = time.monotonic()
                 continue
             now = time.monotonic()
             if now < next_t:
@@ -153,6 +166,7 @@ class ImagePublisherThread(threading.Thread):
             with self._latest_lock:
                 self.latest = msg
             self.pub.publish(msg)
+            last_pub = time.monotonic()
             self.published += 1
             next_t = max(next_t + self.period, time.monotonic()) if self.period else 0.0
 
@@ -182,6 +196,7 @@ def main(argv=None):
     rate = rospy.get_param('~publish_rate', 15)
     frame_id = rospy.get_param('~frame_id', 'vnc')
     encodings = rospy.get_param('~encodings', '') or None
+    republish = rospy.get_param('~republish_period', 1.0)
     password = PasswordSource.from_param('~password', where='%s:%s' % (host, port))
     try:
         port = int(port)
@@ -197,6 +212,13 @@ def main(argv=None):
     except (TypeError, ValueError):
         rospy.logerr('~publish_rate must be a positive number, got %r; using 15', rate)
         rate = 15.0
+    try:
+        republish = float(republish)
+        if republish < 0:
+            raise ValueError
+    except (TypeError, ValueError):
+        rospy.logerr('~republish_period must be >= 0 seconds, got %r; using 1', republish)
+        republish = 1.0
     client = VncClient(host, port, password=password, encodings=encodings)
 
     def fatal(exc):
@@ -205,7 +227,7 @@ def main(argv=None):
                               else 'VNC password missing')
 
     receiver = VncReceiver(client, log=_RospyLog, on_fatal=fatal, retry_auth=password.retry)
-    publisher = ImagePublisherThread(client, topic, rate, frame_id)
+    publisher = ImagePublisherThread(client, topic, rate, frame_id, republish)
     rospy.loginfo('vnc_image_client: %s:%d -> %s (rgba8, at most %g images/s)',
                   host, port, rospy.resolve_name(topic), rate)
     receiver.start()

@@ -298,3 +298,22 @@ def test_depth_camera_publishes_depth_image_and_cutoffs():
     assert q.depth_topic is None
     with pytest.raises(plugins.PluginError, match='pointCloudCutoffMax'):
         _load(_variant(pointCloudCutoff='1', pointCloudCutoffMax='0.5'))
+
+
+@pytest.mark.parametrize('fmt,encoding,channels', [('R8G8B8', 'rgb8', 3), ('B8G8R8', 'bgr8', 3),
+                                                    ('L8', 'mono8', 1)])
+def test_image_format(fmt, encoding, channels):
+    root = ET.fromstring(CLASSIC)
+    root.find('camera').find('image').find('format').text = fmt
+    p, _ = _load(ET.tostring(root, encoding='unicode'))
+    assert p.encoding == encoding
+    p.update(0.0)
+    img = p.last_image
+    assert img.encoding == encoding and img.step == 64 * channels
+    from simvid.imageconv import image_to_rgb
+    rgb = image_to_rgb(img)
+    if channels == 3:
+        assert np.array_equal(rgb, p.last_rgb)        # same picture whatever the order
+    root.find('camera').find('image').find('format').text = 'BAYER_RGGB8'
+    with pytest.raises(plugins.PluginError, match='BAYER_RGGB8'):
+        _load(ET.tostring(root, encoding='unicode'))

@@ -19,7 +19,11 @@ import math
 
 import numpy as np
 
-__all__ = ['CameraModelError', 'focal_from_hfov', 'hfov_from_focal', 'Intrinsics',
+# Gazebo's <image><format> (and the 2011 <imageFormat>) -> ROS encoding
+IMAGE_FORMATS = {'R8G8B8': 'rgb8', 'RGB_INT8': 'rgb8', 'B8G8R8': 'bgr8', 'BGR_INT8': 'bgr8',
+                 'L8': 'mono8', 'L_INT8': 'mono8'}
+
+__all__ = ['IMAGE_FORMATS', 'CameraModelError', 'focal_from_hfov', 'hfov_from_focal', 'Intrinsics',
            'Distorter', 'camera_info', 'pack_rgb', 'points_from_depth', 'point_cloud2',
            'SimCamera']
 
@@ -334,9 +338,15 @@ class SimCamera(object):
     def camera_info(self, stamp=None, frame_id=''):
         return camera_info(self.intr, stamp, frame_id)
 
-    def image_msg(self, rgb, stamp=None, frame_id=''):
+    def image_msg(self, rgb, stamp=None, frame_id='', encoding='rgb8'):
+        """sensor_msgs/Image of the rendered rgb in ``encoding`` (rgb8, bgr8, mono8)."""
+        import cv2
         from .imageconv import array_to_image
-        return array_to_image(rgb, 'rgb8', stamp=stamp, frame_id=frame_id)
+        if encoding == 'bgr8':
+            rgb = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+        elif encoding == 'mono8':
+            rgb = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        return array_to_image(rgb, encoding, stamp=stamp, frame_id=frame_id)
 
     def cloud_msg(self, rgb, depth, stamp=None, frame_id='', cutoff=(0.0, float('inf'))):
         """Organized PointCloud2 of the published image's pixels; points nearer than

@@ -31,7 +31,7 @@ import threading
 
 from . import Plugin, PluginError, register
 from ..model import _local
-from ..camera_model import SimCamera, CameraModelError
+from ..camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
 
 __all__ = ['CameraPlugin']
 
@@ -182,6 +182,14 @@ class CameraPlugin(Plugin):
             raise PluginError('%s: %s' % (self.label, e))
         self.update_rate = self._read_rate()
         self.frame_id = self.param('frameName') or self.link
+        fmt = self._sensor('camera', 'image', 'format') or self.param('imageFormat')
+        if fmt is None:
+            self.encoding = 'rgb8'
+        elif fmt.strip() in IMAGE_FORMATS:
+            self.encoding = IMAGE_FORMATS[fmt.strip()]
+        else:
+            raise PluginError('%s: image format %r is not supported (use one of %s)'
+                              % (self.label, fmt, ', '.join(sorted(IMAGE_FORMATS))))
         cam_name = (self.param('cameraName') or '').strip('/')
 
         def topic(names, default):
@@ -317,7 +325,7 @@ class CameraPlugin(Plugin):
         pose = self.world.link_pose(self.model.name, self.link)
         rgb, depth = self.camera.render(self.world.renderer, pose, depth=want_depth)
         stamp = self.world.ros_now() if self._pubs else None
-        img = self.camera.image_msg(rgb, stamp, self.frame_id)
+        img = self.camera.image_msg(rgb, stamp, self.frame_id, self.encoding)
         info = self.camera.camera_info(stamp, self.frame_id)
         cloud = depth_img = None
         pubs = self._pubs

@@ -511,3 +511,18 @@ def test_state_left_by_other_users_of_the_context_does_not_leak_in():
             GL.glDisable(GL.GL_SCISSOR_TEST)
             GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
             GL.glColorMask(GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE)
+
+
+def test_a_mesh_file_is_read_once_for_many_models(tmp_path, monkeypatch):
+    _write_stl(str(tmp_path / 'bowl.stl'), _hemisphere())
+    calls = []
+    real = shapes.load_mesh
+    monkeypatch.setattr(shapes, 'load_mesh', lambda *a, **k: calls.append(a) or real(*a, **k))
+    r = Renderer()
+    for i in range(3):
+        r.add_model(_model('b%d' % i, Geometry('mesh', filename='bowl.stl'), Pose((2, i - 1, 0)),
+                           base_dir=str(tmp_path)))
+    r.add_model(_model('big', Geometry('mesh', filename='bowl.stl', scale=(2, 2, 2)),
+                       Pose((4, 0, 0)), base_dir=str(tmp_path)))
+    assert len(calls) == 2                       # one per (file, scale)
+    assert r.render(CameraView(40, 30, 1.2, background=(0, 0, 0))).max() > 0

@@ -130,6 +130,7 @@ class Renderer(object):
         self._items = {}               # model name -> [_Item]
         self._link_poses = {}          # model name -> {link: 4x4}
         self._images = {}              # texture path -> RGBA array (loaded once)
+        self._meshes = {}              # (mesh file, scale) -> MeshData (read once)
         self._gl_textures = {}         # texture key -> GL id
         self._dyn = {}                 # (model, link) -> _DynTex
         self._lights = None
@@ -150,7 +151,7 @@ class Renderer(object):
         for link_name, link in model.links.items():
             for vis in link.visuals:
                 try:
-                    mesh = shapes.geometry_mesh(vis.geometry, model.resolve_path)
+                    mesh = self._mesh(vis.geometry, model)
                 except shapes.MeshLoadError as e:
                     log.error('model %s link %s: visual not shown: %s', model.name, link_name, e)
                     continue
@@ -172,8 +173,9 @@ class Renderer(object):
                     for i, (_, _, _, img) in enumerate(mesh.parts):
                         key = None
                         if img is not None:
-                            key = 'mesh:%s:%s:%d' % (model.name, id(mesh), i)
-                            self._images[key] = _rgba(img)
+                            key = 'mesh:%d:%d' % (id(mesh), i)     # meshes are cached
+                            if key not in self._images:
+                                self._images[key] = _rgba(img)
                         it.part_keys.append(key)
                 items.append(it)
         poses = {}
@@ -191,6 +193,18 @@ class Renderer(object):
             self._link_poses[model.name] = poses
             self._update_world(model.name)
         return len(items)
+
+    def _mesh(self, geometry, model):
+        """MeshData of a geometry; mesh files are read once per (file, scale)."""
+        if geometry.kind != 'mesh':
+            return shapes.geometry_mesh(geometry)
+        path = model.resolve_path(geometry.filename)
+        key = (path, tuple(float(v) for v in geometry.scale))
+        mesh = self._meshes.get(key)
+        if mesh is None:
+            mesh = shapes.load_mesh(path, geometry.scale)
+            self._meshes[key] = mesh
+        return mesh
 
     def remove_model(self, name):
         with self._lock:

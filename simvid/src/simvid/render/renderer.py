@@ -375,8 +375,8 @@ class Renderer(object):
                 d.active = False
                 continue
             size = (img.shape[1], img.shape[0], img.shape[2])
-            d.tex = _upload_texture(d.tex if d.size == size else None, img, mipmap=False,
-                                    replace=d.size == size)
+            # same size: update in place; new size: re-specify the same texture object
+            d.tex = _upload_texture(d.tex, img, mipmap=False, replace=d.size == size)
             d.size = size
             d.active = True
 

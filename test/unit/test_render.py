@@ -526,3 +526,38 @@ def test_a_mesh_file_is_read_once_for_many_models(tmp_path, monkeypatch):
                        Pose((4, 0, 0)), base_dir=str(tmp_path)))
     assert len(calls) == 2                       # one per (file, scale)
     assert r.render(CameraView(40, 30, 1.2, background=(0, 0, 0))).max() > 0
+
+
+def test_phone_shell_like_the_thesis_nexus_s_renders_from_the_back(tmp_path):
+    """The thesis's Collada Nexus S showed a 'faulty back view' in Gazebo (figure 3.3b). A
+    phone-shaped shell with the usual CAD export defects -- centimetres, Y_UP, scrambled
+    winding, an open side (the back cover missing) -- must show from behind: the inside of
+    the front cover, lit, not a hole and not black."""
+    shell = shapes.box((6.3, 12.4, 1.1))             # cm; y is the long axis (Y_UP file)
+    tris = shell.positions.reshape(-1, 3, 3)
+    centres = tris.mean(axis=1)
+    # drop the back cover: in the file's frame (Y_UP) the phone's back is -z
+    tris = tris[centres[:, 2] > -0.5]
+    tris = tris.copy()
+    tris[::3] = tris[::3, ::-1]
+    _write_dae(str(tmp_path / 'phone.dae'), tris, unit=0.01, up='Y_UP', colour=(0.2, 0.2, 0.8))
+    md = shapes.load_mesh(str(tmp_path / 'phone.dae'))
+    lo, hi = md.bounds()
+    # metres, long axis up (z) after the Y_UP fix, thickness along y
+    assert np.allclose(hi - lo, (0.063, 0.011, 0.124), atol=1e-4), hi - lo
+    assert md.double_sided
+    r = Renderer()
+    r.set_lights([Light('sun', direction=(0, -1, -0.2))], ambient=(0.3, 0.3, 0.3))
+    r.add_model(Model('phone', links={'l': Link('l', visuals=[
+        Visual(Geometry('mesh', filename='phone.dae'))])}, base_dir=str(tmp_path)))
+    # Y_UP -> Z_UP turns the file's -z (the open back) to +y: look into it from +y, with
+    # the sun behind the camera
+    back = CameraView(80, 80, math.radians(20), Pose.from_xyz_rpy((0, 0.5, 0), (0, 0, -math.pi / 2)),
+                      background=(0, 0, 0))
+    inside = r.render(back)[35:45, 35:45].astype(int)
+    assert (inside[:, :, 2] > 120).all(), inside[:, :, 2]      # inside of the front: lit
+    # the closed front from -y: drawn (ambient only, the sun is on the other side)
+    front = CameraView(80, 80, math.radians(20), Pose.from_xyz_rpy((0, -0.5, 0), (0, 0, math.pi / 2)),
+                       background=(0, 0, 0))
+    outside = r.render(front)[35:45, 35:45].astype(int)
+    assert (outside[:, :, 2] > 40).all() and (outside[:, :, 2] < 90).all(), outside[:, :, 2]

@@ -222,6 +222,39 @@ class VncNodeTest(unittest.TestCase):
                     out = p.communicate()[0].decode('utf-8', 'replace')
             self.assertNotIn(self.pw, out)
 
+    def test_8_publish_rate_limits_a_fast_changing_screen(self):
+        w, h = self.server.width, self.server.height
+        pics = [pattern(w, h, seed=s) for s in (21, 22)]
+        images = Collector('/vnc_rate', Image)
+        p = subprocess.Popen(self._spawn_args('vnc_rate') + ['_publish_rate:=4',
+                                                             '_password:=' + self.pw],
+                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+        try:
+            deadline = time.monotonic() + 20
+            while images.latest() is None and time.monotonic() < deadline:
+                time.sleep(0.1)
+            self.assertIsNotNone(images.latest())
+            n0 = len(images.all())
+            t0 = time.monotonic()
+            i = 0
+            while time.monotonic() - t0 < 3.0:       # ~20+ screen changes per second
+                self.server.show(pics[i & 1])
+                i += 1
+                time.sleep(0.02)
+            time.sleep(0.3)
+            n = len(images.all()) - n0
+            self.assertGreater(i, 40, 'the screen did not change fast enough to test')
+            self.assertLessEqual(n, 4 * 3 + 3, '%d images in 3 s at publish_rate 4' % n)
+            self.assertGreaterEqual(n, 6, 'only %d images in 3 s of changes' % n)
+        finally:
+            p.send_signal(signal.SIGINT)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+
 
 if __name__ == '__main__':
     rostest.rosrun(PKG, 'vnc_image_client_rostest', VncNodeTest)

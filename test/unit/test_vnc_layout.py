@@ -81,3 +81,31 @@ def test_library_defaults_read_through_binding():
         assert cl.MallocFrameBuffer  # the library's default allocator is installed
     finally:
         lib.rfbClientCleanup(c)
+
+
+def test_log_hook_formats_printf_arguments():
+    """LibVNCClient's printf-style log lines are rebuilt from the raw varargs registers."""
+    import ctypes
+    buf = ctypes.create_string_buffer(b'Authentication failure')
+    addr = ctypes.addressof(buf)
+    assert L._format(b'VNC connection failed: %s\n', [addr]) == \
+        'VNC connection failed: Authentication failure\n'
+    assert L._format(b'%d bits, %u%%, 0x%x', [32, 0xffffffff, 255]) == '32 bits, 4294967295%, 0xff'
+    assert L._format(b'neg %d', [0xfffffffe]) == 'neg -2'
+    # more conversions than arguments: the bare format, nothing invented
+    assert L._format(b'%d %d %d', [1]) == '%d %d %d'
+
+
+def test_library_messages_reach_python_logging(caplog):
+    import logging
+    caplog.set_level(logging.DEBUG, logger='vnc_image_client.libvncclient')
+    lib = L.lib()
+    L.start_recording()
+    c = lib.rfbGetClient(8, 3, 4)
+    try:
+        # port 1 on localhost: nothing listens there (privileged, unused)
+        assert not lib.ConnectToRFBServer(c, b'127.0.0.1', 1)
+    finally:
+        lib.rfbClientCleanup(c)
+    assert any('Unable to connect' in m for m in L.recorded()), L.recorded()
+    assert 'libvncclient: Unable to connect' in caplog.text

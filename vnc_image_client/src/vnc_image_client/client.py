@@ -215,8 +215,11 @@ class VncClient(object):
                     raise VncPasswordRequired(
                         'VNC server %s requires a password and none was given '
                         '(set ~password or start the node on a terminal to be asked)' % where)
-                if self.password_asked:
+                if self.password_asked and any('authentication fail' in m.lower()
+                                               for m in L.recorded()):
                     raise VncAuthError('VNC server %s rejected the password (%s)' % (where, why))
+                # (a server that goes away in the middle of the handshake, even after the
+                # password was sent, is an outage, not a wrong password)
                 raise VncConnectError('VNC handshake with %s failed: %s' % (where, why))
             cl.width = cl.si.framebufferWidth
             cl.height = cl.si.framebufferHeight

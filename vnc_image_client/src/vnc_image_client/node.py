@@ -137,28 +137,23 @@ class ImagePublisherThread(threading.Thread):
         return msg
 
     def run(self):
-        last_seq = self.client.seq
+        last_seq = 0     # seq counts complete frames from 1: the first one is always new
         buf = None
         next_t = 0.0
         last_pub = time.monotonic()
         while not rospy.is_shutdown():
             seq = self.client.wait_update(last_seq, 0.25)
-            if seq <= last_seq:
-                # a static screen: repeat the latest image now and then, so subscribers that
-                # missed it (or dropped it while starting up) still get the current screen
-                if self.republish and self.latest is not None and \
-                        time.monotonic() - last_pub >= self.republish and self.client.valid:
-                    with self._latest_lock:
-                        msg = self.latest
-                        msg.header.stamp = rospy.Time.now()
-                    self.pub.publish(msg)
-                    last_pub = time.monotonic()
+            fresh = seq > last_seq
+            # a static screen: repeat the current image now and then, so subscribers that
+            # missed it (or dropped it while starting up) still get it
+            due = self.republish and time.monotonic() - last_pub >= self.republish
+            if not fresh and not (due and self.client.valid):
                 continue
             now = time.monotonic()
-            if now < next_t:
+            if fresh and now < next_t:
                 time.sleep(next_t - now)
             img, seq = self.client.snapshot(buf)
-            last_seq = seq
+            last_seq = max(last_seq, seq)
             if img is None:          # connection dropped meanwhile
                 continue
             buf = img
@@ -168,7 +163,8 @@ class ImagePublisherThread(threading.Thread):
             self.pub.publish(msg)
             last_pub = time.monotonic()
             self.published += 1
-            next_t = max(next_t + self.period, time.monotonic()) if self.period else 0.0
+            if fresh:
+                next_t = max(next_t + self.period, time.monotonic()) if self.period else 0.0
 
 
 class _SendLatest(rospy.SubscribeListener):

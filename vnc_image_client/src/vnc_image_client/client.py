@@ -349,8 +349,11 @@ class VncReceiver(threading.Thread):
                     if isinstance(e, VncAuthError) and self.retry_auth and self.retry_auth():
                         self.log.error(str(e) + '; asking again')
                         continue
-                    self.log.error(str(e) + '; giving up (no retries: VNC servers block '
-                                   'clients that keep sending wrong passwords)')
+                    if isinstance(e, VncAuthError):
+                        self.log.error(str(e) + '; giving up (no retries: VNC servers block '
+                                       'clients that keep sending wrong passwords)')
+                    else:
+                        self.log.error(str(e) + '; giving up')
                     self.fatal = e
                     if self.on_fatal:
                         self.on_fatal(e)

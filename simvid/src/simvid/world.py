@@ -138,6 +138,15 @@ class World(object):
                     self.log.error('model %s: cannot draw it: %s', m.name, e)
             self._renderer = r
             self.sync_renderer()
+            # let plugins that waited for a GL context (video textures) draw before the
+            # first frame is rendered
+            for ps in self.plugins.values():
+                for p in ps:
+                    try:
+                        p.renderer_created(r)
+                    except Exception as e:  # noqa: BLE001
+                        self.log.error('plugin %s of model %s: %s', p.spec.filename,
+                                       p.model.name, e)
         return self._renderer
 
     def sync_renderer(self):

@@ -317,6 +317,10 @@ class VideoPlugin(Plugin):
                 self._log_error('%s: cannot update the texture: %s'
                                 % (self.texture.name, e))
 
+    def renderer_created(self, renderer):
+        # a camera just created the renderer: show the waiting image in its first frame
+        self.update(self.world.sim_time)
+
     def reset(self):
         # the display keeps showing its picture across /gazebo/reset_world, like a screen
         Plugin.reset(self)

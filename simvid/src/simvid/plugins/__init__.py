@@ -17,7 +17,8 @@ Lifecycle, driven by ``simvid.world.World``:
    message for bad parameters; the world logs it as one line and keeps the model.
 3. ``update(sim_time)``: called when sim time reaches the plugin's next period
    (``update_rate`` Hz of *sim* time; 0 = every world step), whatever the wall clock does.
-4. ``reset()`` on /gazebo/reset_world, ``shutdown()`` when the model is deleted.
+4. ``renderer_created(renderer)`` once, when the first camera creates the renderer;
+   ``reset()`` on /gazebo/reset_world, ``shutdown()`` when the model is deleted.
 
 What plugins may use of the world: ``world.sim_time``, ``world.ros_now()`` (rospy.Time
 of the sim time), ``world.link_pose(model_name, link_name)`` (Pose in the world),
@@ -110,6 +111,10 @@ class Plugin(object):
 
     def update(self, sim_time):
         pass
+
+    def renderer_created(self, renderer):
+        """Called once when the world creates its renderer (the first camera that renders),
+        before that camera's first frame."""
 
     def reset(self):
         self.next_update = 0.0

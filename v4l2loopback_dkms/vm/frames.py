@@ -3,6 +3,7 @@
 output bytes from the unit-tested converter (simvid.yuv), hashed whole and per half so a
 frame whose top and bottom come from different pictures (a torn frame) is recognised."""
 import hashlib
+import os
 
 import numpy as np
 
@@ -28,22 +29,43 @@ def digest(data):
 
 
 class Expected(object):
-    """Hashes of the expected output frames: whole, top half, bottom half -> k."""
+    """Hashes of the expected output frames: whole, top half, bottom half -> k.
 
-    def __init__(self, width, height, pixel_format='yuyv'):
+    ``cache``: an .npy file with the frames, written by the host (vm_test) so the emulated
+    guest does not spend half a minute converting; computed here when it is missing."""
+
+    def __init__(self, width, height, pixel_format='yuyv', cache=None):
         from simvid.yuv import Converter
         conv = Converter(width, height, pixel_format)
         self.size = conv.frame_size
         self.half = self.size // 2
         self.whole, self.top, self.bottom = {}, {}, {}
-        self.frames = []
-        for k in range(N):
-            data = conv.rgb_to_bytes(picture(k, width, height))
-            self.frames.append(data)
+        stack = None
+        if cache and os.path.exists(cache):
+            stack = np.load(cache)
+            if stack.shape != (N, self.size):
+                stack = None
+        if stack is None:
+            stack = np.stack([np.frombuffer(conv.rgb_to_bytes(picture(k, width, height)),
+                                            np.uint8) for k in range(N)])
+        self.frames = [stack[k].tobytes() for k in range(N)]
+        for k, data in enumerate(self.frames):
             self.whole[digest(data)] = k
             self.top[digest(data[:self.half])] = k
             self.bottom[digest(data[self.half:])] = k
         self.black = digest(conv.rgb_to_bytes(np.zeros((height, width, 3), np.uint8)))
+        self.stack = stack
+
+
+def write_cache(path, width, height):
+    """Host side: convert the pictures once and store them for the guest."""
+    e = Expected(width, height)
+    np.save(path, e.stack)
+
+
+if __name__ == '__main__':
+    import sys
+    write_cache(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]))
 
     def classify(self, data, top=None):
         """-> ('black'|'frame'|'torn'|'garbage', k). ``top``: bytes of the top half read

@@ -183,14 +183,13 @@ def summary(reads):
 
 
 # --- helpers for the phases --------------------------------------------------------------
-def take_over_with_reader_open(exp, first, second_args, label, device, keep_second=False):
+def take_over_with_reader_open(exp, first, second, device, keep_second=False):
     """``first`` (an image_sink) streams to ``device`` and a reader is open and reading. A
     second image_sink is started: it must report the busy device (capture-only while a
     writer streams, exclusive_caps=1) in ONE error line and keep retrying. ``first`` then
     stops; the second must take over while the reader stays open.
     -> (error_line_ok, took_over, detail)"""
     cap = CaptureDevice(device, buffers=2)
-    second = None
     try:
         cap.start()
         got, end = 0, time.monotonic() + 30
@@ -203,12 +202,11 @@ def take_over_with_reader_open(exp, first, second_args, label, device, keep_seco
                 got += 1
         if got < 5:
             return False, False, 'reader got only %d frames from the first image_sink' % got
-        note('reader open; starting a second image_sink (%s)' % label)
-        second = sink(label, device=device, **second_args)
+        note('reader open; waiting for the second image_sink (%s)' % second.name)
         busy = second.wait_for(r'not a video output device', 150)
         note('second image_sink reported the busy device: %s; stopping the first' % busy)
         first.stop()
-        took = second.wait_for(r'image_sink: writing', 20)
+        took = second.wait_for(r'image_sink: writing', 10)
         new, end = 0, time.monotonic() + (20 if took else 2)
         while new < 10 and time.monotonic() < end:
             try:
@@ -229,7 +227,7 @@ def take_over_with_reader_open(exp, first, second_args, label, device, keep_seco
         return busy and len(busy_lines) == 1, took and new >= 10, detail
     finally:
         cap.close()
-        if second is not None and not keep_second:
+        if not keep_second:
             second.stop()
 
 
@@ -339,8 +337,8 @@ def phase_unpatched(sink_a):
     if not sink_a.wait_for(r'image_sink: writing', 300):
         check('image_sink writes to the unpatched module', False, sink_a.text()[-1500:])
         return
-    busy_ok, took, detail = take_over_with_reader_open(
-        EXP, sink_a, {'io_method': 'mmap'}, 'sink_b_unpatched', dev)
+    sink_b = sink('sink_b_unpatched', device=dev, io_method='mmap')
+    busy_ok, took, detail = take_over_with_reader_open(EXP, sink_a, sink_b, dev)
     check('unpatched module: busy device (capture-only while another writer streams): '
           'one clear error line', busy_ok, detail)
     check('unpatched module: after a write() writer stops, a restarted image_sink cannot '
@@ -364,6 +362,9 @@ def phase_patched(sink_c):
           '%d error lines: %s' % (len(lines), lines[0].strip()[:160] if lines else ''))
     if not took:
         return
+    # the image_sink that will take over starts now (slow under emulation), is refused
+    # while sink_c streams and takes over when sink_c stops, below
+    sink_d = sink('sink_d_patched', device=dev, io_method='mmap')
     time.sleep(1)
     ok, out = list_formats(dev)
     check('v4l2-ctl --list-formats-ext shows exactly YUYV %dx%d at %d fps' % (W, H, FPS), ok,
@@ -374,13 +375,12 @@ def phase_patched(sink_c):
     ok, detail = opencv_read(EXP, dev)
     check('io_method write: OpenCV VideoCapture reads the published pictures', ok, detail)
     # restart: the write() image_sink stops, an mmap one takes over, the reader stays open
-    busy_ok, took, detail = take_over_with_reader_open(
-        EXP, sink_c, {'io_method': 'mmap'}, 'sink_d_patched', dev, keep_second=True)
+    busy_ok, took, detail = take_over_with_reader_open(EXP, sink_c, sink_d, dev,
+                                                       keep_second=True)
     check('patched module: busy device (capture-only while another writer streams): '
           'one clear error line', busy_ok, detail)
     check('patched module: after a write() writer stops, a restarted image_sink (mmap) '
           'serves the open reader', took, detail)
-    sink_d = [p for p in RUNNING if p.name == 'sink_d_patched'][0]
     if not took:
         sink_d.stop()
         return
@@ -431,7 +431,9 @@ def main():
     sink_a = sink('sink_a_unpatched', device=DEV_UNPATCHED, io_method='write', rosrun=True)
     sink_c = sink('sink_c_patched', device=DEV, io_method='write', rosrun=True)
     note('started roscore, publisher, two image_sinks; computing expected frames')
-    EXP, EXP_SMALL = frames.Expected(W, H), frames.Expected(TW, TH)
+    EXP = frames.Expected(W, H, cache=os.path.join(ROOT, 'build', 'vm', 'expected_%dx%d.npy'
+                                                   % (W, H)))
+    EXP_SMALL = frames.Expected(TW, TH)
     note('expected frames ready')
     try:
         if not master_up(200):

@@ -60,6 +60,16 @@ class QrDemo(unittest.TestCase):
             self.assertGreaterEqual(k, 1)
             self.assertLessEqual(abs((b - a) - k / 30.0), 0.001 + 1e-6, (a, b))
 
+    def test_2b_rate_in_sim_time_from_stamps(self):
+        n0 = len(self.images)
+        deadline = time.time() + 120
+        while len(self.images) < n0 + 31 and time.time() < deadline:
+            time.sleep(0.1)
+        frames = list(self.images[n0:n0 + 31])
+        self.assertEqual(len(frames), 31)
+        span = frames[-1].header.stamp.to_sec() - frames[0].header.stamp.to_sec()
+        self.assertAlmostEqual(30 / span, 30.0, delta=0.05)   # 30 frames in 1 s of sim time
+
     def test_3_set_hfov_zooms(self):
         before = rospy.wait_for_message('/mobile_device/image_raw', Image, timeout=30)
         wide = desk_fraction(before)

@@ -54,6 +54,7 @@ class World(object):
         self._static_poses = {}           # model name -> {link: Pose} for static models
         self.on_model_added = []          # callbacks(model) (ROS API: tf_static)
         self.on_model_deleted = []
+        self.before_plugin_updates = []   # callbacks(sim_time) (ROS API: /clock first)
 
     # -- loading ---------------------------------------------------------------------------
     def load_world_file(self, path):
@@ -252,6 +253,8 @@ class World(object):
         t = self.sim_time
         due = [p for ps in self.plugins.values() for p in ps if p.due(t)]
         if due:
+            for cb in self.before_plugin_updates:
+                cb(t)
             self.sync_renderer()
             for p in due:
                 try:

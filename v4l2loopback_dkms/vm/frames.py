@@ -57,16 +57,6 @@ class Expected(object):
         self.stack = stack
 
 
-def write_cache(path, width, height):
-    """Host side: convert the pictures once and store them for the guest."""
-    e = Expected(width, height)
-    np.save(path, e.stack)
-
-
-if __name__ == '__main__':
-    import sys
-    write_cache(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]))
-
     def classify(self, data, top=None):
         """-> ('black'|'frame'|'torn'|'garbage', k). ``top``: bytes of the top half read
         earlier than ``data`` (a slow reader), else taken from ``data``."""
@@ -87,3 +77,14 @@ if __name__ == '__main__':
         if kt is not None and kb is not None:
             return 'torn', (kt, kb)
         return 'garbage', None
+
+
+def write_cache(path, width, height):
+    """Host side: convert the pictures once and store them for the guest."""
+    e = Expected(width, height)
+    np.save(path, e.stack)
+
+
+if __name__ == '__main__':
+    import sys
+    write_cache(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]))

@@ -241,9 +241,10 @@ class GazeboRosApi(object):
             del self._static_tf[k]
         self.tf_static_pub.publish(TFMessage(list(self._static_tf.values())))
 
-    def publish_clock(self, stamp=None):
+    def publish_clock(self, stamp=None, repeat=False):
+        """Publish /clock; ``repeat`` sends it even when sim time has not moved (paused)."""
         stamp = stamp if stamp is not None else self.world.ros_now()
-        if stamp != self._last_clock:
+        if repeat or stamp != self._last_clock:
             self._last_clock = stamp
             self.clock_pub.publish(Clock(stamp))
 
@@ -261,7 +262,7 @@ class GazeboRosApi(object):
                 states.twist.append(_twist_msg(lin, ang))
                 if not model.static:
                     tfs.append(_transform('world', tf_frame(model, model.root_link), pose, stamp))
-        self.publish_clock(stamp)
+        self.publish_clock(stamp, repeat=True)
         if self.states_pub.get_num_connections():
             self.states_pub.publish(states)
         if tfs and stamp != self._last_tf_stamp:   # tf2 rejects repeated stamps (paused)

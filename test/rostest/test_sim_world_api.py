@@ -15,7 +15,7 @@ import rostest
 import tf2_ros
 from geometry_msgs.msg import Pose as PoseMsg
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Joy
+from sensor_msgs.msg import Imu, Joy
 from std_srvs.srv import Empty
 
 from mobile_device_sim.msg import ModelState, ModelStates
@@ -188,6 +188,15 @@ class SimWorldApi(unittest.TestCase):
         pub.publish(Joy(axes=[0.0] * 6))    # zero messages do not move it
         time.sleep(0.5)
         self.assertAlmostEqual(self.get('flycam', 'world').pose.position.y, 4.0, places=2)
+
+    def test_imu_of_the_phone(self):
+        # thesis snippet 3.3.2: the phone's IMU; held still (gravity off) it reads +g up
+        msg = rospy.wait_for_message('/mobile_device/imu_sensor_data', Imu, timeout=30)
+        msg = rospy.wait_for_message('/mobile_device/imu_sensor_data', Imu, timeout=30)
+        self.assertEqual(msg.header.frame_id, 'mobile_base_link')
+        self.assertGreater(msg.header.stamp.to_sec(), 0.0)
+        self.assertAlmostEqual(msg.linear_acceleration.z, 9.81, delta=0.05)
+        self.assertAlmostEqual(msg.angular_velocity.x, 0.0, delta=1e-3)
 
     # -- bad input -----------------------------------------------------------------------
     def assertWorldAlive(self):

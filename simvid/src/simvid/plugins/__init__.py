@@ -40,6 +40,7 @@ log = logging.getLogger('simvid.plugins')
 # Modules that define plugins; imported on first lookup.
 PLUGIN_MODULES = [
     'simvid.plugins.camera',
+    'simvid.plugins.imu',
     'textvid.video',
 ]
 

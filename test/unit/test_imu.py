@@ -1,0 +1,92 @@
+"""The IMU plugin (thesis 3.3.3, snippet 3.3.2) on the World, without ROS."""
+import math
+
+import numpy as np
+import pytest
+
+from simvid.transforms import Pose
+from simvid.urdf import parse_urdf
+from simvid.world import World
+
+
+def robot(name, gravity=True, imu='<updateRate>100</updateRate>'):
+    g = '' if gravity else '<gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>'
+    return parse_urdf('''<robot name="%s"><link name="base">
+      <inertial><mass value="0.129"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
+      <collision><geometry><box size="0.12 0.06 0.01"/></geometry></collision></link>%s
+      <gazebo><plugin name="imu" filename="libgazebo_ros_imu.so">
+        <bodyName>base</bodyName><topicName>imu</topicName>%s</plugin></gazebo></robot>'''
+                      % (name, g, imu))
+
+
+@pytest.fixture(params=['ode', 'bullet'])
+def world(request):
+    w = World(physics=request.param)
+    yield w
+    w.shutdown()
+
+
+def imu_of(world, name):
+    return [p for p in world.plugins[name] if p.spec.filename == 'libgazebo_ros_imu.so'][0]
+
+
+def test_held_phone_reads_gravity_up(world):
+    world.add_model(robot('flat', gravity=False), pose=Pose((0, 0, 1)))
+    # rolled by 90 degrees: the world's up axis is the link's -y
+    world.add_model(robot('rolled', gravity=False), pose=Pose.from_xyz_rpy((1, 0, 1), (math.pi / 2, 0, 0)))
+    world.step(100)
+    q, gyro, force = imu_of(world, 'flat').last
+    assert force == pytest.approx([0, 0, 9.81], abs=1e-3)
+    assert gyro == pytest.approx([0, 0, 0], abs=1e-6)
+    q, gyro, force = imu_of(world, 'rolled').last
+    assert force == pytest.approx([0, 9.81, 0], abs=1e-3)
+    assert q == pytest.approx(Pose.from_xyz_rpy((0, 0, 0), (math.pi / 2, 0, 0)).q, abs=1e-6)
+
+
+def test_free_fall_reads_zero(world):
+    world.add_model(robot('drop'), pose=Pose((0, 0, 50)))
+    world.step(200)
+    force = imu_of(world, 'drop').last[2]
+    assert np.linalg.norm(force) < 0.05
+
+
+def test_gyro_in_link_frame(world):
+    world.add_model(robot('spin', gravity=False), pose=Pose.from_xyz_rpy((0, 0, 1), (0, math.pi / 2, 0)))
+    world.set_state('spin', world.model_state('spin')[0], ang=[0, 0, 1.0])
+    world.step(20)
+    gyro = imu_of(world, 'spin').last[1]
+    # pitched by +90 degrees the link's +x points down (world -z), so a spin about the
+    # world's z axis reads -1 rad/s about the link's x
+    assert gyro == pytest.approx([-1.0, 0, 0], abs=1e-3)
+
+
+def test_rate_and_noise(world):
+    world.add_model(robot('noisy', gravity=False, imu='<updateRate>50</updateRate>'
+                          '<gaussianNoise>0.2</gaussianNoise>'), pose=Pose((0, 0, 1)))
+    p = imu_of(world, 'noisy')
+    samples = []
+    orig = p.imu.sample
+
+    def record(*a):
+        r = orig(*a)
+        samples.append(r[2])
+        return r
+    p.imu.sample = record
+    world.step(4000)
+    assert len(samples) == 4 * 50 + 1
+    s = np.array(samples[1:])
+    assert s.std(axis=0) == pytest.approx([0.2, 0.2, 0.2], rel=0.3)
+    assert s.mean(axis=0) == pytest.approx([0, 0, 9.81], abs=0.06)
+
+
+@pytest.mark.parametrize('imu, words', [
+    ('<bodyName>ghost</bodyName>', 'ghost'),
+    ('<updateRate>-3</updateRate>', 'updateRate'),
+    ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets'),
+])
+def test_bad_params_leave_the_model(world, caplog, imu, words):
+    xml = robot('bad', imu=imu).source_xml.replace('<bodyName>base</bodyName>', '') \
+        if 'bodyName' in imu else robot('bad', imu=imu).source_xml
+    world.add_model(parse_urdf(xml))
+    assert 'bad' in world.models and world.plugins['bad'] == []
+    assert any(words in r.getMessage() for r in caplog.records)

@@ -454,6 +454,9 @@ def main():
             if p not in (core, rosout, pub, sink_c):
                 p.stop()
         subprocess.call(['rmmod', 'v4l2loopback'])
+        # sink_c must have met the missing device before the module appears
+        if not sink_c.wait_for(r'no such device', 240):
+            note('image_sink for /dev/video0 did not report the missing device in time')
         module('patched', DEV, exclusive_caps=1, video_nr=0, card_label='mobile_device_sim')
         try:
             phase_patched(sink_c)

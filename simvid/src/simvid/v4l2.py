@@ -226,6 +226,39 @@ def _open(device, flags):
         raise DeviceError('%s: cannot open: %s' % (device, os.strerror(e.errno)))
 
 
+def _map_buffers(fd, device, buf_type, count):
+    """REQBUFS(count, MMAP) then QUERYBUF + mmap of every granted buffer -> [mmap]."""
+    req = v4l2_requestbuffers()
+    req.count, req.type, req.memory = count, buf_type, MEMORY_MMAP
+    _ioctl(fd, VIDIOC_REQBUFS, req, 'VIDIOC_REQBUFS', device)
+    if req.count < 1:
+        raise DeviceError('%s: driver granted no mmap buffers' % device)
+    maps = []
+    for i in range(req.count):
+        buf = v4l2_buffer()
+        buf.index, buf.type, buf.memory = i, buf_type, MEMORY_MMAP
+        _ioctl(fd, VIDIOC_QUERYBUF, buf, 'VIDIOC_QUERYBUF', device)
+        maps.append((mmap.mmap(fd, buf.length, mmap.MAP_SHARED,
+                               mmap.PROT_READ | mmap.PROT_WRITE, offset=buf.m.offset),
+                     buf.length))
+    return maps
+
+
+def _release(fd, maps, buf_type, streaming):
+    """STREAMOFF (if streaming), unmap, close."""
+    if streaming:
+        try:
+            fcntl.ioctl(fd, VIDIOC_STREAMOFF, ctypes.c_int(buf_type))
+        except OSError:
+            pass
+    for m in maps:
+        try:
+            m.close()
+        except (BufferError, ValueError):
+            pass
+    os.close(fd)
+
+
 def querycap(fd, device='device'):
     cap = v4l2_capability()
     try:
@@ -327,23 +360,12 @@ class OutputDevice(object):
         self.announced_fps = (tpf.denominator / float(tpf.numerator)) if tpf.numerator else 0.0
 
     def _setup_mmap(self, nbuffers):
-        req = v4l2_requestbuffers()
-        req.count = nbuffers
-        req.type = BUF_TYPE_VIDEO_OUTPUT
-        req.memory = MEMORY_MMAP
-        _ioctl(self.fd, VIDIOC_REQBUFS, req, 'VIDIOC_REQBUFS', self.device)
-        if req.count < 1:
-            raise DeviceError('%s: driver granted no mmap buffers' % self.device)
-        for i in range(req.count):
-            buf = v4l2_buffer()
-            buf.index, buf.type, buf.memory = i, BUF_TYPE_VIDEO_OUTPUT, MEMORY_MMAP
-            _ioctl(self.fd, VIDIOC_QUERYBUF, buf, 'VIDIOC_QUERYBUF', self.device)
-            if buf.length < self.frame_size:
+        maps = _map_buffers(self.fd, self.device, BUF_TYPE_VIDEO_OUTPUT, nbuffers)
+        self.maps = [m for m, _ in maps]
+        for i, (_, length) in enumerate(maps):
+            if length < self.frame_size:
                 raise DeviceError('%s: buffer %d has %d bytes, a frame needs %d'
-                                  % (self.device, i, buf.length, self.frame_size))
-            self.maps.append(mmap.mmap(self.fd, buf.length, mmap.MAP_SHARED,
-                                       mmap.PROT_READ | mmap.PROT_WRITE,
-                                       offset=buf.m.offset))
+                                  % (self.device, i, length, self.frame_size))
         # Start streaming; every buffer is first filled with a real frame and queued
         # (figure 4.5 a), after that a buffer is reclaimed with DQBUF (figure 4.6). An empty
         # buffer is never queued: a loopback driver would hand it to the readers as a frame.
@@ -384,20 +406,8 @@ class OutputDevice(object):
     def close(self):
         if self.fd is None:
             return
-        if self.streaming:
-            try:
-                fcntl.ioctl(self.fd, VIDIOC_STREAMOFF, ctypes.c_int(BUF_TYPE_VIDEO_OUTPUT))
-            except OSError:
-                pass
-            self.streaming = False
-        for m in self.maps:
-            try:
-                m.close()
-            except (BufferError, ValueError):
-                pass
-        self.maps = []
-        os.close(self.fd)
-        self.fd = None
+        _release(self.fd, self.maps, BUF_TYPE_VIDEO_OUTPUT, self.streaming)
+        self.maps, self.streaming, self.fd = [], False, None
 
     def __enter__(self):
         return self
@@ -472,16 +482,8 @@ class CaptureDevice(object):
             i += 1
 
     def start(self):
-        req = v4l2_requestbuffers()
-        req.count, req.type, req.memory = self.nbuffers, BUF_TYPE_VIDEO_CAPTURE, MEMORY_MMAP
-        _ioctl(self.fd, VIDIOC_REQBUFS, req, 'VIDIOC_REQBUFS', self.device)
-        for i in range(req.count):
-            buf = v4l2_buffer()
-            buf.index, buf.type, buf.memory = i, BUF_TYPE_VIDEO_CAPTURE, MEMORY_MMAP
-            _ioctl(self.fd, VIDIOC_QUERYBUF, buf, 'VIDIOC_QUERYBUF', self.device)
-            self.maps.append(mmap.mmap(self.fd, buf.length, mmap.MAP_SHARED,
-                                       mmap.PROT_READ | mmap.PROT_WRITE,
-                                       offset=buf.m.offset))
+        self.maps = [m for m, _ in _map_buffers(self.fd, self.device, BUF_TYPE_VIDEO_CAPTURE,
+                                                 self.nbuffers)]
         for i in range(len(self.maps)):
             buf = v4l2_buffer()
             buf.index, buf.type, buf.memory = i, BUF_TYPE_VIDEO_CAPTURE, MEMORY_MMAP
@@ -509,16 +511,5 @@ class CaptureDevice(object):
     def close(self):
         if self.fd is None:
             return
-        if self.streaming:
-            try:
-                fcntl.ioctl(self.fd, VIDIOC_STREAMOFF, ctypes.c_int(BUF_TYPE_VIDEO_CAPTURE))
-            except OSError:
-                pass
-        for m in self.maps:
-            try:
-                m.close()
-            except (BufferError, ValueError):
-                pass
-        self.maps = []
-        os.close(self.fd)
-        self.fd = None
+        _release(self.fd, self.maps, BUF_TYPE_VIDEO_CAPTURE, self.streaming)
+        self.maps, self.streaming, self.fd = [], False, None

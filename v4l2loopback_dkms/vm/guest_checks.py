@@ -149,13 +149,26 @@ def publications():
     return out
 
 
+def start_reader(cap, timeout=30):
+    """STREAMON fails (EIO) until a writer has delivered the first frame: retry."""
+    end = time.monotonic() + timeout
+    while True:
+        try:
+            return cap.start()
+        except DeviceError:
+            if time.monotonic() > end:
+                raise
+            cap.maps = []
+            time.sleep(0.5)
+
+
 def read_frames(exp, count, timeout, device=DEV, hold=0.0, nbuf=2):
     """mmap reader: returns a list of (class, k, read_time). ``hold``: seconds the reader
     keeps a dequeued buffer between reading its top half and the rest."""
     cap = CaptureDevice(device, buffers=nbuf)
     out = []
     try:
-        cap.start()
+        start_reader(cap)
         end = time.monotonic() + timeout
         while len(out) < count and time.monotonic() < end:
             top = []
@@ -191,7 +204,7 @@ def take_over_with_reader_open(exp, first, second, device, keep_second=False):
     -> (error_line_ok, took_over, detail)"""
     cap = CaptureDevice(device, buffers=2)
     try:
-        cap.start()
+        start_reader(cap)
         got, end = 0, time.monotonic() + 30
         while got < 5 and time.monotonic() < end:
             try:

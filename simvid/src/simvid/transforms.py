@@ -18,13 +18,19 @@ class InvalidPose(ValueError):
 
 
 def quat_normalize(q):
-    q = np.asarray(q, dtype=float)
-    if q.shape != (4,) or not np.all(np.isfinite(q)):
-        raise InvalidPose('quaternion %s is not four finite numbers' % (list(np.round(q, 6)),))
-    n = float(np.linalg.norm(q))
+    """Unit quaternion of q (x, y, z, w); InvalidPose for NaN/inf or a zero quaternion.
+    Plain float math: this runs several times per world step."""
+    try:
+        x, y, z, w = (float(v) for v in q)
+    except (TypeError, ValueError):
+        raise InvalidPose('quaternion %r is not four numbers' % (q,))
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if not math.isfinite(n):
+        raise InvalidPose('quaternion %s is not four finite numbers'
+                          % ([round(v, 6) for v in (x, y, z, w)],))
     if n < 1e-6:
-        raise InvalidPose('quaternion %s cannot be normalised (norm %.3g)' % (list(q), n))
-    return q / n
+        raise InvalidPose('quaternion %s cannot be normalised (norm %.3g)' % ([x, y, z, w], n))
+    return np.array((x / n, y / n, z / n, w / n))
 
 
 def quat_from_rpy(roll, pitch, yaw):

@@ -164,10 +164,14 @@ class World(object):
         return self.physics.link_poses(model_name)
 
     def link_pose(self, model_name, link_name):
-        poses = self.link_poses(model_name)
-        if link_name not in poses:
-            raise KeyError('model %r has no link %r' % (model_name, link_name))
-        return poses[link_name]
+        if model_name in self._static_poses:
+            poses = self._static_poses[model_name]
+            if link_name not in poses:
+                raise KeyError('model %r has no link %r' % (model_name, link_name))
+            return poses[link_name]
+        if model_name not in self.models:
+            raise KeyError('no model named %r' % model_name)
+        return self.physics.link_pose(model_name, link_name)
 
     def model_state(self, name):
         """(Pose, linear, angular) of a model's root link in the world."""

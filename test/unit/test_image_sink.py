@@ -200,6 +200,29 @@ def test_bad_parameters():
         v4l2.OutputDevice('/dev/null', 8, 4, 15, io_method='userptr')
 
 
+def test_io_method_choice_and_fallback():
+    S, RW = v4l2.CAP_STREAMING, v4l2.CAP_READWRITE
+    assert v4l2.choose_io(S | RW, 'mmap') == 'mmap'
+    assert v4l2.choose_io(S | RW, 'write') == 'write'
+    assert v4l2.choose_io(RW, 'mmap') == 'write'          # write(2) is mmap's fallback
+    with pytest.raises(v4l2.DeviceError, match='no read/write I/O'):
+        v4l2.choose_io(S, 'write', '/dev/videoX')
+    with pytest.raises(v4l2.DeviceError, match='neither streaming nor read/write'):
+        v4l2.choose_io(0, 'mmap', '/dev/videoX')
+
+
+def test_fallback_is_named_in_the_info_line():
+    class WriteOnly(FakeDevice):
+        def __init__(self, *a, **k):
+            FakeDevice.__init__(self, *a, **k)
+            self.io_method, self.fallback = 'write', 'VIDIOC_REQBUFS failed: Invalid argument'
+    infos = []
+    w = DeviceWriter('/dev/videoF', 8, 4, 15, log_error=lambda m: 0, log_info=infos.append,
+                     clock=Clock(), opener=WriteOnly)
+    assert w.write(b'x' * 64)
+    assert 'write I/O instead of mmap: VIDIOC_REQBUFS failed' in infos[0]
+
+
 def test_rate_fraction():
     assert v4l2.rate_fraction(15) == (1, 15)
     assert v4l2.rate_fraction(29.97) == (1000, 29970)

@@ -415,9 +415,10 @@ def phase_patched(sink_c):
     reads = read_frames(EXP, 300, 150, device=dev, hold=0.015)
     c = summary(reads)
     set_rate(FPS)
+    changes = sum(1 for a, b in zip(reads, reads[1:]) if a[1] != b[1])
     check('300 frames through image_sink from a fast publisher, slow reader: none torn',
           len(reads) == 300 and c.get('torn', 0) == 0 and c.get('frame', 0) >= 290,
-          '%s' % c)
+          '%s, %d picture changes' % (c, changes))
     sink_d.stop()
     counts, written = fast_writer_vs_slow_reader(dev)
     check('patched module, max_buffers=2: fast writer vs slow reader, no torn frames',

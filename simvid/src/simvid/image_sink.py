@@ -117,9 +117,12 @@ class DeviceWriter(object):
         self.opens += 1
         self.err.reset()
         a = self.args
-        self.log_info('image_sink: writing %dx%d %s at %g fps to %s (%s I/O, driver %s)'
+        io = getattr(self.dev, 'io_method', a['io_method'])
+        why = getattr(self.dev, 'fallback', None)
+        self.log_info('image_sink: writing %dx%d %s at %g fps to %s (%s I/O%s, driver %s)'
                       % (a['width'], a['height'], a['pixel_format'], a['fps'],
-                         a['device'], a['io_method'], getattr(self.dev, 'driver', '?')))
+                         a['device'], io, (' instead of %s: %s' % (a['io_method'], why))
+                         if why else '', getattr(self.dev, 'driver', '?')))
         return True
 
     def write(self, frame):

@@ -19,7 +19,7 @@ import os
 import select
 
 __all__ = ['DeviceError', 'OutputDevice', 'CaptureDevice', 'fourcc', 'fourcc_str',
-           'PIX_FMT', 'querycap']
+           'PIX_FMT', 'querycap', 'choose_io', 'rate_fraction']
 
 # --- constants -------------------------------------------------------------------------
 BUF_TYPE_VIDEO_CAPTURE = 1
@@ -291,7 +291,8 @@ class OutputDevice(object):
         self.width, self.height = int(width), int(height)
         self.fps = float(fps)
         self.pixel_format = pixel_format
-        self.io_method = io_method
+        self.io_method = self.requested_io = io_method
+        self.fallback = None     # why io_method differs from the requested one
         self.fourcc, bpp = PIX_FMT[pixel_format]
         self.bytesperline = self.width * bpp
         self.frame_size = self.bytesperline * self.height
@@ -312,12 +313,21 @@ class OutputDevice(object):
                 raise DeviceError('%s: not a video output device (driver %r, capabilities '
                                   '0x%08x have no VIDEO_OUTPUT)' % (self.device, self.driver,
                                                                    caps))
-            if self.io_method == 'mmap' and not caps & CAP_STREAMING:
-                raise DeviceError('%s: no streaming I/O, use io_method write' % self.device)
+            self.io_method = choose_io(caps, self.io_method, self.device)
+            if self.io_method != self.requested_io:
+                self.fallback = 'the device has no streaming I/O'
             self._set_format()
             self._set_rate()
             if self.io_method == 'mmap':
-                self._setup_mmap(nbuffers)
+                try:
+                    self._setup_mmap(nbuffers)
+                except DeviceError as e:
+                    if not caps & CAP_READWRITE:
+                        raise
+                    # write(2) as the fallback of the thesis's mmap I/O
+                    for m in self.maps:
+                        m.close()
+                    self.maps, self.io_method, self.fallback = [], 'write', str(e)
         except Exception:
             self.close()
             raise
@@ -414,6 +424,18 @@ class OutputDevice(object):
 
     def __exit__(self, *exc):
         self.close()
+
+
+def choose_io(caps, requested, device='device'):
+    """The I/O method to use: mmap (the thesis's choice) when the device streams, write(2)
+    as its fallback; a clear error when the device offers neither."""
+    if requested == 'mmap' and caps & CAP_STREAMING:
+        return 'mmap'
+    if caps & CAP_READWRITE:
+        return 'write'
+    if requested == 'write' and caps & CAP_STREAMING:
+        raise DeviceError('%s: no read/write I/O, use io_method mmap' % device)
+    raise DeviceError('%s: offers neither streaming nor read/write I/O' % device)
 
 
 def rate_fraction(fps):

@@ -11,7 +11,6 @@ integration with a real roscore.
     absent master is one clear error, a hostile publisher is survived.
 Cost: about 3 minutes on 2 cores, 90 s of which are fuzzing (MDS_FUZZ_SECONDS=30).
 """
-import glob
 import os
 import re
 import shutil

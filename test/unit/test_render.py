@@ -2,7 +2,6 @@
 video texture faces, meshes (OBJ/STL/DAE written here), model removal. No roscore; one
 OSMesa context for the whole process, small images so the file runs in a few seconds."""
 import math
-import os
 
 import cv2
 import numpy as np

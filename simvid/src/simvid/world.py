@@ -8,7 +8,6 @@ another thread (ROS service callbacks) takes ``world.lock``.
 """
 import logging
 import math
-import os
 import threading
 from collections import OrderedDict
 
@@ -305,7 +304,3 @@ class World(object):
         if close is not None:
             close()   # frees Bullet's native client now, not at garbage collection
 
-
-def default_world_path():
-    return os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'worlds',
-                        'office.world')

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..transforms import Pose
 from . import shapes
-from .context import get_context, RenderError, linearize_depth
+from .context import get_context, linearize_depth
 
 __all__ = ['CameraView', 'Renderer', 'DEFAULT_SUN']
 

@@ -12,6 +12,7 @@ it is already set.
 """
 import os
 import sys
+import threading
 
 import rospy
 
@@ -64,12 +65,28 @@ def main(argv=None):
     rospy.loginfo('sim_world: world %r from %s, %d models, physics %s, step %g s, '
                   'real_time_factor %g', world.name, world_file, len(world.models), engine,
                   step, rtf)
-    try:
-        run_loop(world, api, real_time_factor=rtf,
-                 publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
-    finally:
-        world.shutdown()
-    return 0
+    # The world runs in its own thread; the main thread only waits in rospy.spin(). rospy
+    # handles SIGINT/SIGTERM in the main thread: had that thread been inside a publish()
+    # when the signal came, rospy's shutdown would wait for the lock that very thread holds,
+    # and roslaunch had to escalate to SIGKILL.
+    failed = []
+
+    def world_thread():
+        try:
+            run_loop(world, api, real_time_factor=rtf,
+                     publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
+        except Exception as e:  # noqa: BLE001 - say what stopped the world, then stop the node
+            failed.append(e)
+            rospy.logfatal('sim_world: the world loop stopped: %s: %s' % (type(e).__name__, e))
+            rospy.signal_shutdown('world loop failed')
+        finally:
+            world.shutdown()
+
+    thread = threading.Thread(target=world_thread, name='sim_world_loop', daemon=True)
+    thread.start()
+    rospy.spin()
+    thread.join(timeout=10.0)
+    return 1 if failed else 0
 
 
 class _RospyLogger(object):

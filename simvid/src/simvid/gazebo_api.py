@@ -48,7 +48,7 @@ def _twist_msg(lin, ang):
 def tf_frame(model, link):
     """tf frame of a link: the link name for URDF robots (prefixed with the robot namespace
     if spawned in one), '<model>/<link>' for world-file models."""
-    prefix = getattr(model, 'tf_prefix', None)
+    prefix = model.tf_prefix
     if prefix is None:
         prefix = model.robot_namespace.strip('/')
     return '%s/%s' % (prefix, link) if prefix else link
@@ -225,7 +225,7 @@ class GazeboRosApi(object):
 
     # -- topics ----------------------------------------------------------------------------
     def _model_added(self, model):
-        if getattr(model, 'tf_prefix', None) is None and model.static:
+        if model.tf_prefix is None and model.static:
             model.tf_prefix = model.name
         stamp = self.world.ros_now()
         for j in model.joints:

@@ -237,6 +237,7 @@ class Model(object):
         self.plugins = plugins or []         # [PluginSpec]
         self.base_dir = base_dir or os.getcwd()   # for relative mesh/texture paths
         self.robot_namespace = robot_namespace
+        self.tf_prefix = None    # tf frame prefix; None: the robot namespace (see gazebo_api)
         self.source_xml = None
 
     @property

@@ -32,6 +32,12 @@ static int pixel_format(const tr_image *img, int *pf, int *bpp, char *err, size_
             if ((uint64_t)img->width * (uint64_t)t[i].bpp > img->step)
                 return tr_seterr(err, errlen, "step %u is less than width %u * %d bytes for %s",
                                  img->step, img->width, t[i].bpp, img->encoding);
+            /* 4:2:2 stores pixel pairs (Y U Y V): an odd width still needs the whole last pair,
+             * which get_rgb() reads for the chroma of the last pixel */
+            if ((t[i].pf == PF_UYVY || t[i].pf == PF_YUYV) &&
+                ((uint64_t)img->width + 1) / 2 * 4 > img->step)
+                return tr_seterr(err, errlen, "step %u is less than the %u pixel pairs of a %u wide %s row",
+                                 img->step, (img->width + 1) / 2, img->width, img->encoding);
             if ((uint64_t)img->step * img->height > img->data_len)
                 return tr_seterr(err, errlen, "data is %u bytes, step*height needs %llu", img->data_len,
                                  (unsigned long long)img->step * img->height);

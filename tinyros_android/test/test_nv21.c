@@ -151,6 +151,15 @@ static void test_yuv_and_mono16(void)
     CHECK_EQ_INT(tr_image_to_rgb(&img, rgb, 4, 1, err, sizeof err), 0);
     CHECK_EQ_INT(rgb[0], 0);
     CHECK_EQ_INT(rgb[3], 255);
+    /* an odd-width 4:2:2 row must hold its whole last pixel pair (found by libFuzzer:
+     * get_rgb read the pair's chroma 2 bytes past a 3*2-byte row) */
+    uint8_t odd[3 * 2] = { 128, 126, 128, 126, 128, 126 };
+    img = make("yuv422", 3, 1, 6, odd);
+    CHECK(tr_image_to_rgb(&img, rgb, 3, 1, err, sizeof err) != 0);
+    CHECK_CONTAINS(err, "pixel pairs");
+    uint8_t odd_padded[8] = { 128, 126, 128, 126, 128, 126, 128, 126 };
+    img = make("yuv422_yuy2", 3, 1, 8, odd_padded);
+    CHECK_EQ_INT(tr_image_to_rgb(&img, rgb, 3, 1, err, sizeof err), 0);
     /* mono16 little and big endian use the high byte */
     uint8_t m16[8] = { 0x34, 0xFF, 0x34, 0xFF, 0x34, 0xFF, 0x34, 0xFF };
     img = make("mono16", 2, 2, 4, m16);

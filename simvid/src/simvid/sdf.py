@@ -165,16 +165,22 @@ def _link(lel, model, what):
     return link, _pose(lel, lwhat)
 
 
+def _sdf_element(text, tag, what, malformed):
+    """The <tag> element of SDF text: the root itself, or the child of an <sdf> root."""
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as e:
+        raise ModelError('%s (XML error: %s)' % (malformed, e))
+    el = root.find(tag) if _local(root.tag) == 'sdf' else root
+    if el is None or _local(el.tag) != tag:
+        raise ModelError('%s has no <%s> element' % (what, tag))
+    return el
+
+
 def parse_sdf_model(mel, base_dir=None, what=None):
     """An SDF <model> element (or its XML text) -> Model."""
     if isinstance(mel, (str, bytes)):
-        try:
-            root = ET.fromstring(mel)
-        except ET.ParseError as e:
-            raise ModelError('malformed SDF (XML error: %s)' % e)
-        mel = root.find('model') if _local(root.tag) == 'sdf' else root
-        if mel is None or _local(mel.tag) != 'model':
-            raise ModelError('SDF text has no <model> element')
+        mel = _sdf_element(mel, 'model', 'SDF text', 'malformed SDF')
     name = mel.get('name')
     if not name:
         raise ModelError('an SDF <model> has no name')
@@ -231,13 +237,7 @@ def _sun():
 
 
 def parse_world(text, base_dir=None):
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as e:
-        raise ModelError('malformed world file (XML error: %s)' % e)
-    wel = root.find('world') if _local(root.tag) == 'sdf' else root
-    if wel is None or _local(wel.tag) != 'world':
-        raise ModelError('world file has no <world> element')
+    wel = _sdf_element(text, 'world', 'world file', 'malformed world file')
     w = WorldDescription(wel.get('name', 'default'))
     g = _child_text(wel, 'gravity') or _child_text(wel, 'physics/gravity')
     if g:

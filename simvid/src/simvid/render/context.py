@@ -165,15 +165,6 @@ class Context(object):
         GL.glReadPixels(0, 0, width, height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, out)
         return out
 
-    def read_rgb_raw(self, width, height, out=None):
-        """glReadPixels of the bound target as HxWx3 uint8, GL row order (row 0 = bottom)."""
-        GL = self._GL
-        if out is None:
-            out = np.empty((height, width, 3), np.uint8)
-        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
-        GL.glReadPixels(0, 0, width, height, GL.GL_RGB, GL.GL_UNSIGNED_BYTE, out)
-        return out
-
     def read_rgb(self, width, height):
         """The bound target's colour as HxWx3 uint8, row 0 = top of the image. (Reads RGBA:
         llvmpipe's RGB readback is several times slower than RGBA plus a conversion.)"""

@@ -4,7 +4,8 @@ from catkin_pkg.python_setup import generate_distutils_setup
 
 setup(**generate_distutils_setup(
     packages=['simvid', 'simvid.physics', 'simvid.render', 'simvid.plugins',
-              'textvid', 'kinect4skype', 'vnc_image_client'],
+              'textvid', 'kinect4skype', 'vnc_image_client',
+              'simsensors', 'testing_instance'],
     package_dir={
         'simvid': 'simvid/src/simvid',
         'simvid.physics': 'simvid/src/simvid/physics',
@@ -13,5 +14,7 @@ setup(**generate_distutils_setup(
         'textvid': 'textvid/src/textvid',
         'kinect4skype': 'kinect4skype/src/kinect4skype',
         'vnc_image_client': 'vnc_image_client/src/vnc_image_client',
+        'simsensors': 'simsensors/src/simsensors',
+        'testing_instance': 'testing_instance/src/testing_instance',
     },
 ))

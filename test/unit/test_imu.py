@@ -9,7 +9,10 @@ from simvid.urdf import parse_urdf
 from simvid.world import World
 
 
-def robot(name, gravity=True, imu='<updateRate>100</updateRate>'):
+NO_NOISE = '<accelGaussianNoise>0</accelGaussianNoise><rateGaussianNoise>0</rateGaussianNoise>'
+
+
+def robot(name, gravity=True, imu='<updateRate>100</updateRate>' + NO_NOISE):
     g = '' if gravity else '<gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>'
     return parse_urdf('''<robot name="%s"><link name="base">
       <inertial><mass value="0.129"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
@@ -61,32 +64,74 @@ def test_gyro_in_link_frame(world):
 
 
 def test_rate_and_noise(world):
+    """The thesis's single gaussianNoise sets both sigmas; samples come at the rate in sim
+    time."""
     world.add_model(robot('noisy', gravity=False, imu='<updateRate>50</updateRate>'
                           '<gaussianNoise>0.2</gaussianNoise>'), pose=Pose((0, 0, 1)))
     p = imu_of(world, 'noisy')
     samples = []
-    orig = p.imu.sample
+    orig = p.measure
 
     def record(*a):
         r = orig(*a)
-        samples.append(r[2])
+        samples.append((r[1], r[2]))
         return r
-    p.imu.sample = record
+    p.measure = record
     world.step(4000)
     assert len(samples) == 4 * 50 + 1
-    s = np.array(samples[1:])
+    gyro = np.array([s[0] for s in samples[1:]])
+    s = np.array([s[1] for s in samples[1:]])
     assert s.std(axis=0) == pytest.approx([0.2, 0.2, 0.2], rel=0.3)
+    assert gyro.std(axis=0) == pytest.approx([0.2, 0.2, 0.2], rel=0.3)
     assert s.mean(axis=0) == pytest.approx([0, 0, 9.81], abs=0.06)
 
 
-@pytest.mark.parametrize('imu, words', [
-    ('<bodyName>ghost</bodyName>', 'ghost'),
-    ('<updateRate>-3</updateRate>', 'updateRate'),
-    ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets'),
+def test_android_cdd_defaults(world):
+    """Without noise parameters the IMU has the Android CDD noise: accelerometer sigma
+    0.05 m/s^2, gyroscope variance 1e-7 rad^2/s^2 per Hz (at 100 Hz: sigma 3.2 mrad/s); the
+    message covariances say so, orientation covariance stays zero (not perturbed)."""
+    world.add_model(robot('cdd', gravity=False, imu='<updateRate>100</updateRate>'),
+                    pose=Pose((0, 0, 1)))
+    p = imu_of(world, 'cdd')
+    acc, gyro = [], []
+    for _ in range(400):
+        world.step(10)
+        acc.append(p.last[2])
+        gyro.append(p.last[1])
+    assert np.std(acc, axis=0) == pytest.approx([0.05] * 3, rel=0.2)
+    assert np.std(gyro, axis=0) == pytest.approx([math.sqrt(1e-7 * 100)] * 3, rel=0.2)
+    msg = p.to_msg(p.last, world.ros_now())
+    assert msg.linear_acceleration_covariance[0] == pytest.approx(0.05 ** 2)
+    assert msg.angular_velocity_covariance[4] == pytest.approx(1e-5)
+    assert list(msg.orientation_covariance) == [0.0] * 9
+
+
+def test_hector_names_per_channel(world):
+    world.add_model(robot('hector', gravity=False, imu='<updateRate>100</updateRate>'
+                          '<accelOffset>0.5 0 0</accelOffset><accelGaussianNoise>0</accelGaussianNoise>'
+                          '<rateOffset>0 0 0.1</rateOffset><rateGaussianNoise>0</rateGaussianNoise>'),
+                    pose=Pose((0, 0, 1)))
+    world.step(50)
+    q, gyro, force = imu_of(world, 'hector').last
+    assert force == pytest.approx([0.5, 0, 9.81], abs=1e-3)
+    assert gyro == pytest.approx([0, 0, 0.1], abs=1e-6)
+
+
+@pytest.mark.parametrize('imu, words, loads', [
+    ('<bodyName>ghost</bodyName>', 'ghost', False),
+    ('<updateRate>-3</updateRate>', 'updateRate must be a number >= 0', True),
+    ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets must be three numbers', True),
+    ('<xyzOffsets>0 0 0.1</xyzOffsets>', 'xyzOffsets must be three numbers zero', True),
+    ('<accelGaussianNoise>-1</accelGaussianNoise>', 'accelGaussianNoise', True),
 ])
-def test_bad_params_leave_the_model(world, caplog, imu, words):
+def test_bad_params_one_line(world, caplog, imu, words, loads):
+    """A bad value: one error line naming plugin, model, parameter and value; the model
+    loads, and the plugin too (with the default) unless it cannot work at all."""
     xml = robot('bad', imu=imu).source_xml.replace('<bodyName>base</bodyName>', '') \
         if 'bodyName' in imu else robot('bad', imu=imu).source_xml
     world.add_model(parse_urdf(xml))
-    assert 'bad' in world.models and world.plugins['bad'] == []
-    assert any(words in r.getMessage() for r in caplog.records)
+    assert 'bad' in world.models
+    assert (len(world.plugins['bad']) == 1) == loads
+    lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
+    assert len(lines) == 1, lines
+    assert words in lines[0] and 'libgazebo_ros_imu.so' in lines[0] and 'bad' in lines[0]

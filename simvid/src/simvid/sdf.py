@@ -52,6 +52,7 @@ class WorldDescription(object):
         self.background = np.array([0.7, 0.7, 0.7, 1.0])
         self.lights = []
         self.models = []
+        self.environment = None     # simvid.environment.Environment
 
 
 def _vec(text, n, what):
@@ -273,6 +274,11 @@ def parse_world(text, base_dir=None):
                              'are built in; spawn other models with spawn_model' % uri)
     for mel in wel.findall('model'):
         w.models.append(parse_sdf_model(mel, base_dir))
+    from .environment import EnvironmentError, parse_environment
+    try:
+        w.environment = parse_environment(wel)
+    except EnvironmentError as e:
+        raise ModelError('world %r: %s' % (w.name, e))
     names = [m.name for m in w.models]
     dup = set(n for n in names if names.count(n) > 1)
     if dup:

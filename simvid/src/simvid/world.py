@@ -14,6 +14,7 @@ from collections import OrderedDict
 import numpy as np
 
 from . import plugins as plugin_registry
+from .environment import Environment
 from .model import ModelError
 from .physics import make_engine
 from .sdf import load_world_file
@@ -27,10 +28,55 @@ log = logging.getLogger('simvid.world')
 WORLD_FRAMES = ('', 'world', 'map', '/world', '/map')
 
 
+class PowerBus(object):
+    """What each phone's components draw now (W) and its switches (WiFi on, display on,
+    charger in ...): outputs and radios report here, the battery reads here."""
+
+    def __init__(self):
+        self._draws = {}
+        self._flags = {}
+
+    def set_draw(self, model, component, watts):
+        watts = float(watts)
+        if not (math.isfinite(watts) and watts >= 0):
+            raise ValueError('power draw of %s must be a number >= 0 W, got %r'
+                             % (component, watts))
+        self._draws.setdefault(model, {})[component] = watts
+
+    def draws(self, model):
+        return dict(self._draws.get(model, {}))
+
+    def total(self, model):
+        return sum(self._draws.get(model, {}).values())
+
+    def set_flag(self, model, name, value):
+        self._flags.setdefault(model, {})[name] = value
+
+    def flag(self, model, name, default=None):
+        return self._flags.get(model, {}).get(name, default)
+
+    def forget(self, model):
+        self._draws.pop(model, None)
+        self._flags.pop(model, None)
+
+
 class World(object):
     def __init__(self, physics='ode', step_size=0.001, gravity=(0.0, 0.0, -9.81),
-                 ros_enabled=False, logger=None):
+                 ros_enabled=False, logger=None, seed=None):
         self.log = logger or log
+        if seed is None:
+            seed = int(np.random.SeedSequence().entropy % (2 ** 31))
+            self.log.info('world seed %d (no seed given: pass it as ~seed / seed:= to repeat '
+                          'this run)', seed)
+        try:
+            seed = int(seed)
+        except (TypeError, ValueError):
+            raise ValueError('seed must be a whole number, got %r' % (seed,))
+        if seed < 0:
+            raise ValueError('seed must be >= 0, got %d' % seed)
+        self.seed = seed
+        self.environment = Environment()
+        self.power = PowerBus()
         self.lock = threading.RLock()
         self.step_size = float(step_size)
         if not (self.step_size > 0 and math.isfinite(self.step_size)):
@@ -64,6 +110,10 @@ class World(object):
         self.gravity = np.asarray(desc.gravity, float)
         self.lights = list(desc.lights)
         self.ambient, self.background = desc.ambient, desc.background
+        if desc.environment is not None:
+            transmitters = self.environment.transmitters
+            self.environment = desc.environment
+            self.environment.transmitters.extend(transmitters)
         for m in desc.models:
             self.add_model(m)
         if self._renderer is not None:
@@ -93,7 +143,7 @@ class World(object):
             for spec in model.plugins:
                 p = plugin_registry.create(spec, model, self, logger=self.log)
                 if p is not None:
-                    p.next_update = self.sim_time
+                    p.timer.reset(self.sim_time)
                     self.plugins[model.name].append(p)
             self._reschedule()
             for cb in self.on_model_added:
@@ -116,6 +166,7 @@ class World(object):
             del self.models[name]
             self._initial.pop(name, None)
             self._static_poses.pop(name, None)
+            self.power.forget(name)
             self._reschedule()
             for cb in self.on_model_deleted:
                 cb(name)
@@ -235,6 +286,28 @@ class World(object):
         self.physics.set_model_pose(name, pose)
         self.physics.set_model_twist(name, lin, ang)
 
+    # -- randomness --------------------------------------------------------------------------
+    def rng(self, *keys):
+        """A numpy Generator derived from the world's seed and text keys (a plugin passes
+        its model and plugin names): the same seed gives the same draws, whatever else runs
+        in the world and in whatever order plugins load."""
+        from .plugins.sensor import stable_seed
+        return np.random.Generator(np.random.PCG64(
+            np.random.SeedSequence([self.seed] + stable_seed(*keys))))
+
+    def find_plugins(self, model_name, key=None):
+        """Plugins of a model matching ``key``: the plugin's name, its library file name,
+        or one of its topics (None: all)."""
+        found = []
+        for p in self.plugins.get(model_name, []):
+            topics = [getattr(q, 'topic', None) for q in getattr(p, 'pubs', [])]
+            topics.append(getattr(p, 'topic', None))
+            names = {p.spec.name, p.spec.filename} | set(t for t in topics if t)
+            names |= set(t.lstrip('/') for t in topics if t)
+            if key is None or key in names or key.lstrip('/') in names:
+                found.append(p)
+        return found
+
     # -- time ----------------------------------------------------------------------------------
     def ros_now(self):
         import rospy
@@ -272,9 +345,10 @@ class World(object):
 
     def _reschedule(self):
         nxt = math.inf
+        now = self.sim_time
         for ps in self.plugins.values():
             for p in ps:
-                nxt = min(nxt, self.sim_time if p.update_rate <= 0 else p.next_update)
+                nxt = min(nxt, p.timer.next_due(now))
         self._next_plugin_time = nxt
 
     def reset(self, time=False):
@@ -289,7 +363,7 @@ class World(object):
             for ps in self.plugins.values():
                 for p in ps:
                     p.reset()
-                    p.next_update = self.sim_time
+                    p.timer.reset(self.sim_time)
             self._reschedule()
 
     def shutdown(self):

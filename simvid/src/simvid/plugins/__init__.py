@@ -25,24 +25,33 @@ of the sim time), ``world.link_pose(model_name, link_name)`` (Pose in the world)
 ``world.renderer`` (the one offscreen renderer, created on first use), ``world.models``,
 ``world.ros_enabled`` (False in unit tests without a roscore).
 
-Register a plugin with ``@register('libgazebo_ros_foo.so')`` in a module listed in
-``PLUGIN_MODULES`` (imported lazily, so a broken optional plugin module costs one warning,
-not the world).
+Register a plugin with ``@register('libgazebo_ros_foo.so')``. Plugin modules are found,
+not listed: the registry imports the modules of this package, and of every stack of the
+repository (``<stack>/src/<package>/``) whose package ``__init__`` says where its plugins are:
+``PLUGIN_MODULES = ['textvid.video']`` (its own modules) or ``PLUGIN_PACKAGE = True`` (every
+module of the package whose name does not start with ``_``). Imports happen on the first
+lookup; a module that fails to import costs one warning, not the world.
+
+Sensors are declared on ``simvid.plugins.sensor.Sensor`` (parameters, one update timer, error
+models, the world's seeded generators); every plugin's schedule is an ``UpdateTimer``.
 """
+import glob
 import importlib
 import logging
+import os
+import pkgutil
+import sys
+
+from .timer import UpdateTimer
 
 __all__ = ['Plugin', 'PluginError', 'register', 'lookup', 'create', 'registered_names',
-           'PLUGIN_MODULES']
+           'plugin_modules']
 
 log = logging.getLogger('simvid.plugins')
 
-# Modules that define plugins; imported on first lookup.
-PLUGIN_MODULES = [
-    'simvid.plugins.camera',
-    'simvid.plugins.imu',
-    'textvid.video',
-]
+#: the repository root (<root>/simvid/src/simvid/plugins/__init__.py)
+ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                     '..', '..', '..', '..'))
 
 _REGISTRY = {}
 _loaded = False
@@ -63,22 +72,62 @@ class Plugin(object):
         self.spec = spec
         self.model = model
         self.world = world
-        self.update_rate = 0.0
-        self.next_update = 0.0
+        self.timer = UpdateTimer()
+
+    # -- schedule (one UpdateTimer in sim time) ----------------------------------------------
+    @property
+    def update_rate(self):
+        return self.timer.rate
+
+    @update_rate.setter
+    def update_rate(self, rate):
+        self.timer.rate = float(rate)
+
+    @property
+    def next_update(self):
+        return self.timer.next_time
+
+    @next_update.setter
+    def next_update(self, t):
+        self.timer.next_time = float(t)
+
+    def set_update_rate_now(self, rate):
+        """Change the rate in Hz of sim time, effective at once (from any thread); raises
+        ValueError for a negative or non-finite rate."""
+        lock = getattr(self.world, 'lock', None)
+        if lock is None:
+            self.timer.set_rate(rate, getattr(self.world, 'sim_time', 0.0))
+            return
+        with lock:
+            self.timer.set_rate(rate, self.world.sim_time)
+            resched = getattr(self.world, '_reschedule', None)
+            if resched is not None:
+                resched()
 
     # -- helpers -------------------------------------------------------------------------
+    @property
+    def label(self):
+        """'plugin <file> of model <m>': how every error line names the plugin."""
+        return 'plugin %s of model %s' % (self.spec.filename, self.model.name)
+
     def param(self, *names, **kw):
         return self.spec.param(*names, **kw)
 
+    def parse(self, rows):
+        """Declared parameters (``simvid.plugins.params.Param`` rows) read from the spec;
+        each bad value gets one error line and its default."""
+        from .params import parse_params
+        vals, _ = parse_params(self.spec, rows, self.label,
+                               getattr(self.world, 'log', None) or log)
+        return vals
+
     def float_param(self, *names, **kw):
-        text = self.spec.param(*names)
-        if text is None:
-            return kw.get('default')
-        try:
-            return float(text)
-        except ValueError:
-            raise PluginError('%s: parameter <%s> must be a number, got %r'
-                              % (self.spec.filename, names[0], text))
+        """One number (a declared row made on the fly): a bad value is an error line and
+        the default."""
+        from .params import Param
+        row = Param(names[0], float, kw.get('default'), aliases=names[1:],
+                    check=kw.get('check'))
+        return getattr(self.parse([row]), names[0])
 
     @property
     def namespace(self):
@@ -96,15 +145,7 @@ class Plugin(object):
     def due(self, sim_time):
         """True when the plugin should update at ``sim_time``; advances its schedule by
         whole periods so the rate in sim time is exact."""
-        if self.update_rate <= 0:
-            return True
-        if sim_time + 1e-9 < self.next_update:
-            return False
-        period = 1.0 / self.update_rate
-        self.next_update += period
-        if self.next_update <= sim_time:   # far behind (e.g. after a reset or rate change)
-            self.next_update = sim_time + period
-        return True
+        return self.timer.due(sim_time)
 
     # -- lifecycle -----------------------------------------------------------------------
     def load(self):
@@ -118,7 +159,7 @@ class Plugin(object):
         before that camera's first frame."""
 
     def reset(self):
-        self.next_update = 0.0
+        self.timer.reset(getattr(self.world, 'sim_time', 0.0))
 
     def shutdown(self):
         pass
@@ -143,16 +184,56 @@ def _key(name):
     return name
 
 
+def _package_modules(pkg_name):
+    """Modules a package names as its plugins (PLUGIN_MODULES / PLUGIN_PACKAGE)."""
+    try:
+        pkg = importlib.import_module(pkg_name)
+    except Exception as e:  # noqa: BLE001 - a broken stack costs one warning
+        log.warning('plugin package %s not available: %s', pkg_name, e)
+        return []
+    mods = list(getattr(pkg, 'PLUGIN_MODULES', ()))
+    if getattr(pkg, 'PLUGIN_PACKAGE', False):
+        for info in pkgutil.iter_modules(getattr(pkg, '__path__', [])):
+            if not info.name.startswith('_'):
+                mods.append('%s.%s' % (pkg_name, info.name))
+    return mods
+
+
+def plugin_modules():
+    """Every module that defines plugins: this package's, and those that the stacks of the
+    repository declare (no hand-kept list of other stacks' modules)."""
+    mods = ['%s.%s' % (__name__, info.name) for info in pkgutil.iter_modules(__path__)
+            if not info.name.startswith('_') and info.name not in NOT_PLUGINS]
+    for init in sorted(glob.glob(os.path.join(ROOT, '*', 'src', '*', '__init__.py'))):
+        pkg_dir = os.path.dirname(init)
+        name = os.path.basename(pkg_dir)
+        if name == 'simvid':
+            continue
+        src = os.path.dirname(pkg_dir)
+        with open(init) as f:
+            text = f.read()
+        if 'PLUGIN_MODULES' not in text and 'PLUGIN_PACKAGE' not in text:
+            continue
+        if name not in sys.modules and src not in sys.path:
+            sys.path.append(src)      # source-tree use (tests); catkin's devel space has it
+        mods.extend(_package_modules(name))
+    return mods
+
+
+#: modules of this package that hold the sensor layer, not plugins
+NOT_PLUGINS = ('params', 'timer', 'noise', 'sensor')
+
+
 def _load_modules():
     global _loaded
     if _loaded:
         return
     _loaded = True
-    for mod in PLUGIN_MODULES:
+    for mod in plugin_modules():
         try:
             importlib.import_module(mod)
-        except ImportError as e:
-            log.warning('plugin module %s not available: %s', mod, e)
+        except Exception as e:  # noqa: BLE001 - one broken module must not stop the world
+            log.warning('plugin module %s not available: %s: %s', mod, type(e).__name__, e)
 
 
 def lookup(filename):

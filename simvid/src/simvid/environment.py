@@ -245,7 +245,7 @@ class Environment(object):
             self._v['north_alpha'] = (90.0 - v) % 360.0
         if name == 'north_alpha':
             v = v % 360.0
-            self._v['heading'] = 90.0 - v
+            self._v['heading'] = (90.0 - v + 180.0) % 360.0 - 180.0
         self._v[name] = v
         self._given.add(name)
         if name in ('latitude', 'longitude', 'elevation', 'magnetic_epoch'):

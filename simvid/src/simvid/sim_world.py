@@ -2,13 +2,16 @@
 
     rosrun mobile_device_sim sim_world [world_file] [_physics_engine:=ode|bullet]
         [_real_time_factor:=1.0] [_max_step_size:=0.001] [_paused:=false]
-        [_pub_clock_frequency:=100]
+        [_pub_clock_frequency:=100] [_seed:=N]
 
 Private parameters: ~world_file (default simvid/worlds/office.world), ~physics_engine,
 ~max_step_size (default: the world file's, else 0.001 s), ~real_time_factor (default: the
 world file's, else 1.0; 0 = as fast as possible), ~paused, ~pub_clock_frequency (Hz of
-wall time for /clock, /gazebo/model_states and /tf). Sets /use_sim_time to true unless
-it is already set.
+wall time for /clock, /gazebo/model_states and /tf), ~seed (every random draw of every
+plugin derives from it: the same seed gives the same sensor data; default: a random seed,
+logged at start so the run can be repeated). Sets /use_sim_time to true unless it is
+already set. Besides the Gazebo API (simvid.gazebo_api) it serves /gazebo/set_environment,
+/gazebo/environment and /gazebo/set_sensor_fault (simvid.world_services).
 """
 import os
 import sys
@@ -21,6 +24,7 @@ from .model import ModelError
 ENGINES = ("ode", "bullet")
 from .sdf import load_world_file
 from .world import World
+from .world_services import WorldServices
 
 DEFAULT_WORLD = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                               '..', '..', 'worlds', 'office.world'))
@@ -50,21 +54,33 @@ def main(argv=None):
     if rtf < 0:
         rospy.logfatal('sim_world: ~real_time_factor must be >= 0, got %g' % rtf)
         return 1
+    seed = rospy.get_param('~seed', None)
+    if seed is not None and seed != '':
+        try:
+            seed = int(seed)
+            if seed < 0:
+                raise ValueError
+        except (TypeError, ValueError):
+            rospy.logfatal('sim_world: ~seed must be a whole number >= 0, got %r' % (seed,))
+            return 1
+    else:
+        seed = None
     try:
-        world = World(physics=engine, step_size=step, gravity=desc.gravity, ros_enabled=True)
+        world = World(physics=engine, step_size=step, gravity=desc.gravity, ros_enabled=True,
+                      seed=seed, logger=_RospyLogger())
     except ValueError as e:
         rospy.logfatal('sim_world: %s' % e)
         return 1
-    world.log = _RospyLogger()
     try:
         world.load_world_file(world_file)
     except ModelError as e:
         rospy.logfatal('sim_world: cannot load world file %s: %s' % (world_file, e))
         return 1
     api = GazeboRosApi(world, paused=bool(rospy.get_param('~paused', False)))
+    services = WorldServices(world)  # noqa: F841 - keeps the services alive
     rospy.loginfo('sim_world: world %r from %s, %d models, physics %s, step %g s, '
-                  'real_time_factor %g', world.name, world_file, len(world.models), engine,
-                  step, rtf)
+                  'real_time_factor %g, seed %d', world.name, world_file, len(world.models),
+                  engine, step, rtf, world.seed)
     # The world runs in its own thread; the main thread only waits in rospy.spin(). rospy
     # handles SIGINT/SIGTERM in the main thread: had that thread been inside a publish()
     # when the signal came, rospy's shutdown would wait for the lock that very thread holds,

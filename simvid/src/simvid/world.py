@@ -302,9 +302,10 @@ class World(object):
         for p in self.plugins.get(model_name, []):
             topics = [getattr(q, 'topic', None) for q in getattr(p, 'pubs', [])]
             topics.append(getattr(p, 'topic', None))
-            names = {p.spec.name, p.spec.filename} | set(t for t in topics if t)
-            names |= set(t.lstrip('/') for t in topics if t)
-            if key is None or key in names or key.lstrip('/') in names:
+            topics = [t for t in topics if t]
+            k = (key or '').strip('/')
+            if key is None or key in (p.spec.name, p.spec.filename) or any(
+                    t.strip('/') == k or t.endswith('/' + k) for t in topics):
                 found.append(p)
         return found
 

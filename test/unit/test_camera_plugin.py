@@ -317,3 +317,32 @@ def test_image_format(fmt, encoding, channels):
     root.find('camera').find('image').find('format').text = 'BAYER_RGGB8'
     with pytest.raises(plugins.PluginError, match='BAYER_RGGB8'):
         _load(ET.tostring(root, encoding='unicode'))
+
+
+def test_rate_change_applies_at_once_on_the_world():
+    """Regression (issue 9): a camera at 0.5 Hz told set_update_rate 30 at t = 0.1 s used to
+    keep its 0.5 Hz schedule until t = 2 s (the new rate only took effect in the next
+    update()). Now the next frame comes one new period later."""
+    from simvid.urdf import parse_urdf
+    from simvid.world import World as RealWorld
+    urdf = '''<robot name="cam"><link name="base">
+      <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
+      <gazebo reference="base"><turnGravityOff>true</turnGravityOff>
+        <sensor type="camera" name="c"><update_rate>0.5</update_rate>
+          <camera><image><width>8</width><height>8</height></image></camera>
+          <plugin name="cc" filename="libgazebo_ros_camera.so"/></sensor></gazebo></robot>'''
+    w = RealWorld(seed=1)
+    try:
+        w.add_model(parse_urdf(urdf), pose=Pose((0, 0, 1)))
+        cam = w.plugins['cam'][0]
+        w.step(100)                       # t = 0.1 s: one frame at t = 0.001
+        before = cam.frames
+        assert before == 1
+        assert cam.set_update_rate(30.0)
+        w.step(100)                       # to t = 0.2 s
+        # the last frame was more than one new period ago: frames at t = 0.101 (at once),
+        # then every 1/30 s: 0.134, 0.167, 0.200 (the old code: none before t = 2 s)
+        assert cam.frames - before == 4
+        assert cam.update_rate == 30.0
+    finally:
+        w.shutdown()

@@ -62,7 +62,6 @@ class CameraPlugin(Plugin):
         self.link = spec.link
         self._lock = threading.Lock()
         self._pending_hfov = None
-        self._pending_rate = None
         self.frames = 0
         self.last_image = None       # last published sensor_msgs/Image (also without ROS)
         self.last_info = None
@@ -284,24 +283,19 @@ class CameraPlugin(Plugin):
             self._error('%s: set_update_rate %r ignored: the rate must be a number >= 0 Hz'
                         % (self.label, rate))
             return False
-        with self._lock:
-            self._pending_rate = rate
+        # effective at once (the next frame one new period after the last one), not after
+        # the old period has run out
+        self.set_update_rate_now(rate)
         return True
 
     def _apply_pending(self, sim_time):
         with self._lock:
             hfov, self._pending_hfov = self._pending_hfov, None
-            rate, self._pending_rate = self._pending_rate, None
         if hfov is not None:
             try:
                 self.camera.set_hfov(hfov)
             except CameraModelError as e:
                 self._error('%s: set_hfov ignored: %s' % (self.label, e))
-        if rate is not None:
-            self.update_rate = rate
-            self.next_update = sim_time + (1.0 / rate if rate > 0 else 0.0)
-            if hasattr(self.world, '_reschedule'):
-                self.world._reschedule()
 
     # -- frames ------------------------------------------------------------------------------
     def wanted(self):

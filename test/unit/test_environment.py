@@ -1,0 +1,125 @@
+"""The world environment (issue 9): the office's location, north, field, atmosphere and
+indoor volume; run-time changes; bad descriptions refused with one clear message."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from simvid.environment import (Environment, EnvironmentError, IndoorVolume,
+                                parse_environment_text)
+from simvid.model import ModelError
+from simvid.sdf import load_world_file, parse_world
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+
+
+@pytest.fixture(scope='module')
+def office():
+    return load_world_file(OFFICE).environment
+
+
+def test_office_carries_the_thesis_values(office):
+    v = office.values()
+    assert v['latitude'] == 48.148940 and v['longitude'] == 11.566730
+    assert v['elevation'] == 519 and v['north_alpha'] == 338.5
+    assert v['heading'] == pytest.approx(111.5)       # SDF's heading for the same north
+    assert (v['sea_level_pressure'], v['sea_level_temperature'], v['temperature_gradient']) \
+        == (101325, 288.15, -0.0065)
+    # World Magnetic Model at Munich: ~48.7 uT, dip ~64 deg, declination ~4 deg east
+    assert v['magnetic_magnitude'] == pytest.approx(48.7e-6, rel=0.03)
+    assert v['magnetic_inclination'] == pytest.approx(64.4, abs=1.0)
+    assert v['magnetic_declination'] == pytest.approx(4.2, abs=1.0)
+
+
+def test_north_and_field_directions(office):
+    a = math.radians(338.5)
+    assert office.north_world() == pytest.approx([math.cos(a), math.sin(a), 0])
+    n, e = office.north_world(), office.east_world()
+    assert np.cross(e, n) == pytest.approx([0, 0, 1])     # east, north, up: right-handed
+    b = office.magnetic_field_world()
+    f, inc, dec = office.magnetic_elements()
+    assert np.linalg.norm(b) == pytest.approx(f)
+    assert b[2] < 0                                         # dips down in the north
+    h = b[:2] / np.linalg.norm(b[:2])
+    # horizontal field: north turned east by the declination
+    ang = math.degrees(math.atan2(h.dot(e[:2]), h.dot(n[:2])))
+    assert ang == pytest.approx(dec, abs=1e-6)
+
+
+def test_pressure_falls_11_pa_per_metre_at_519_m(office):
+    p0 = office.pressure_at(0.0)
+    assert p0 == pytest.approx(101325 * (1 - 0.0065 * 519 / 288.15) ** 5.2559, rel=1e-4)
+    assert office.pressure_at(1.0) - p0 == pytest.approx(-11.4, abs=0.3)
+    env = load_world_file(OFFICE).environment
+    env.set('pressure_offset', 250)
+    assert env.pressure_at(0.0) == pytest.approx(p0 + 250)
+
+
+def test_indoor_volume_and_door_margin(office):
+    assert office.indoor((3.0, -2.0, 1.0)) == (True, 'office', False)
+    assert office.indoor((5.5, -3.0, 1.0)) == (True, 'office', True)    # near the door
+    assert office.indoor((2.0, -3.0, 1.0))[2] is False
+    assert office.indoor((8.0, -3.0, 1.0)) == (False, '', False)        # outdoors
+    assert office.air_temperature((3, -2, 1)) == 21 and office.air_temperature((8, -3, 1)) == 15
+
+
+def test_geodetic_adds_metres_in_utm(office):
+    lat0, lon0, alt0 = office.geodetic((0, 0, 0))
+    assert (lat0, lon0, alt0) == pytest.approx((48.148940, 11.566730, 519))
+    lat, lon, _ = office.geodetic(1000 * office.north_world())
+    assert lon == pytest.approx(lon0, abs=1e-6)
+    assert (lat - lat0) * 111195 == pytest.approx(1000, rel=0.003)     # ~111.2 km per degree
+    lat, lon, _ = office.geodetic(1000 * office.east_world())
+    assert lat == pytest.approx(lat0, abs=1e-5)
+    assert (lon - lon0) * 111320 * math.cos(math.radians(lat0)) == pytest.approx(1000, rel=0.003)
+
+
+def test_set_checks_names_and_ranges():
+    env = Environment()
+    env.set('temperature', 30)
+    assert env.get('temperature') == 30
+    with pytest.raises(EnvironmentError, match='humidity must be a number in'):
+        env.set('humidity', 130)
+    with pytest.raises(EnvironmentError, match='unknown environment value'):
+        env.set('temprature', 1)
+    with pytest.raises(EnvironmentError):
+        env.set_many([('temperature', 5), ('humidity', -1)])
+    assert env.get('temperature') == 30          # nothing changed
+    seen = []
+    env.on_change.append(lambda n, v: seen.append((n, v)))
+    env.set('daylight', 500)
+    assert seen == [('daylight', 500)]
+
+
+WORLD = '''<sdf version="1.6"><world name="w">%s</world></sdf>'''
+
+
+@pytest.mark.parametrize('xml, words', [
+    ('<spherical_coordinates><latitude_deg>95</latitude_deg></spherical_coordinates>',
+     'latitude must be a number in [-90, 90]'),
+    ('<environment><indoor_volume name="v"><polyhedron><point>0 0 0</point><point>1 0 0</point>'
+     '<point>0 1 0</point><point>0 0 1</point><face>0 1 2</face><face>0 1 3</face>'
+     '<face>0 2 3</face></polyhedron></indoor_volume></environment>',
+     "indoor volume 'v' is not a closed polyhedron"),
+    ('<environment><indoor_volume name="v"><box><size>1 -1 1</size></box></indoor_volume>'
+     '</environment>', 'size must be three positive numbers'),
+    ('<environment><humidty>5</humidty></environment>', 'unknown environment element <humidty>'),
+    ('<environment><indoor_volume name="v" margin="-1"><box><size>1 1 1</size></box>'
+     '</indoor_volume></environment>', 'margin must be >= 0'),
+])
+def test_bad_environment_is_refused_with_one_message(xml, words):
+    with pytest.raises(ModelError, match='world .w.: .*' + words.replace('[', r'\[')
+                       .replace(']', r'\]').replace('(', r'\(').replace(')', r'\)')):
+        parse_world(WORLD % xml)
+
+
+def test_closed_tetrahedron_contains():
+    v = IndoorVolume('t', [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)],
+                     [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)])
+    assert v.contains((0.1, 0.1, 0.1)) and not v.contains((0.6, 0.6, 0.6))
+    env = parse_environment_text(WORLD % '<environment><magnetic_field><magnitude>5e-5</magnitude>'
+                                 '<inclination>0</inclination><declination>0</declination>'
+                                 '</magnetic_field></environment>')
+    assert env.magnetic_field_world() == pytest.approx([0, 5e-5, 0])   # alpha 90: north = +y

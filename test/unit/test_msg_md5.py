@@ -30,6 +30,8 @@ GAZEBO_MSGS_MD5 = {
     'srv/SetModelState': '5b3ab0281d4f5445def017e3a2e4a07b',
     'srv/SpawnModel': '9ed9c82c96abe1a00c3e8cdaeee24413',
     'srv/DeleteModel': '9ce56b4e9e54616de25d796dc972a262',
+    'msg/ContactState': '48c0ffb054b8c444f870cecea1ee50d9',
+    'msg/ContactsState': 'acbcb1601a8e525bf72509f18e6f668d',
 }
 
 
@@ -103,3 +105,24 @@ def test_field_names_and_types_match():
     assert ModelStates.__slots__ == ['name', 'pose', 'twist']
     assert ModelStates._slot_types == ['string[]', 'geometry_msgs/Pose[]',
                                        'geometry_msgs/Twist[]']
+
+
+# pr2_msgs/PowerState (the thesis's battery message, code snippet 3.3.4): the real text of
+# github.com/PR2/pr2_common pr2_msgs/msg/PowerState.msg is stored in test/data/pr2_msgs/msg/;
+# genmsg computes e6fa46a387cad0b7a80959a21587a6c9 from it, the md5sum rosserial and
+# rosnodejs ship for pr2_msgs/PowerState.
+PR2_POWER_STATE_MD5 = 'e6fa46a387cad0b7a80959a21587a6c9'
+PR2_DATA = os.path.join(os.path.dirname(DATA), 'pr2_msgs')
+
+
+def test_power_state_md5_equals_pr2_msgs():
+    search = {'pr2_msgs': [os.path.join(PR2_DATA, 'msg')],
+              'std_msgs': [_ros_msg_dir('std_msgs')]}
+    ctx = genmsg.MsgContext.create_default()
+    spec = genmsg.msg_loader.load_msg_by_type(ctx, 'pr2_msgs/PowerState', search)
+    genmsg.msg_loader.load_depends(ctx, spec, search)
+    assert genmsg.gentools.compute_md5(ctx, spec) == PR2_POWER_STATE_MD5
+    from mobile_device_sim.msg import PowerState
+    assert PowerState._md5sum == PR2_POWER_STATE_MD5
+    assert PowerState.__slots__ == ['header', 'power_consumption', 'time_remaining',
+                                    'prediction_method', 'relative_capacity', 'AC_present']

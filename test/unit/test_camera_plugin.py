@@ -163,29 +163,40 @@ def test_table_4_1_parameters():
 
 
 @pytest.mark.parametrize('params,words', [
-    (dict(imageSize='abc'), 'imageSize'),
-    (dict(imageSize='480'), 'imageSize'),
-    (dict(imageSize='-480 800'), 'size'),
-    (dict(hfov='-30'), 'hfov'),
-    (dict(hfov='200'), 'hfov'),
-    (dict(hfov='wide'), 'hfov'),
-    (dict(updateRate='-5'), 'updateRate'),
-    (dict(focal_length='-1'), 'focal_length'),
-    (dict(Cx='left'), 'Cx'),
-    (dict(distortion_k1='x'), 'distortion_k1'),
+    (dict(imageSize='abc'), "imageSize must be \"width height\" in whole pixels, 1..8192, got 'abc'"),
+    (dict(imageSize='480'), "imageSize must be"),
+    (dict(imageSize='-480 800'), "imageSize must be"),
+    (dict(hfov='-30'), "hfov must be a number in (0, 180) degrees, got '-30'"),
+    (dict(hfov='200'), "hfov must be a number in (0, 180) degrees, got '200'"),
+    (dict(hfov='wide'), "hfov must be a number in (0, 180) degrees, got 'wide'"),
+    (dict(updateRate='-5'), "updateRate must be a number >= 0, got '-5'"),
+    (dict(focal_length='-1'), "focal_length must be a number >= 0, got '-1'"),
+    (dict(Cx='left'), "Cx must be a number, got 'left'"),
+    (dict(distortion_k1='x'), "distortion_k1 must be a number, got 'x'"),
 ])
-def test_bad_parameters_raise_a_clear_plugin_error(params, words):
-    with pytest.raises(plugins.PluginError) as e:
-        _load(_variant(**params))
-    assert words in str(e.value) and 'mobile_device' in str(e.value)
+def test_bad_parameters_one_line_and_the_default(params, words, caplog):
+    """A bad value: one line 'plugin <file> of model <m>: <param> must be ..., got ...'; the
+    camera still loads with that parameter's default."""
+    with caplog.at_level(logging.ERROR):
+        p, _ = _load(_variant(**params))
+    lines = [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+    assert len(lines) == 1, lines
+    assert lines[0].startswith('plugin libgazebo_ros_camera.so of model mobile_device: ')
+    assert words in lines[0]
+    good, _ = _load(_variant())
+    name = list(params)[0]
+    if name in ('imageSize', 'hfov', 'focal_length', 'Cx', 'distortion_k1'):
+        assert (p.camera.intr.width, p.camera.intr.height) != (0, 0)
+    if name == 'updateRate':
+        assert p.update_rate == 30.0          # the sensor's rate stays
 
 
-def test_bad_parameters_through_create_log_one_line_and_return_none(caplog):
+def test_bad_parameters_through_create_log_one_line_and_load(caplog):
     model = _phone()
     world = World([model])
     spec = _spec(_variant(imageSize='abc'))
     with caplog.at_level(logging.ERROR):
-        assert plugins.create(spec, model, world) is None
+        assert plugins.create(spec, model, world) is not None
     lines = [r for r in caplog.records if r.levelno >= logging.ERROR]
     assert len(lines) == 1 and 'imageSize' in lines[0].getMessage()
 
@@ -270,7 +281,7 @@ def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
     p._pubs = {}
 
 
-def test_depth_camera_publishes_depth_image_and_cutoffs():
+def test_depth_camera_publishes_depth_image_and_cutoffs(caplog):
     xml = _variant(imageSize='40 30', depthImageTopicName='depth/image_raw',
                    pointCloudCutoff='0.1', pointCloudCutoffMax='0.45')
     root = ET.fromstring(xml)
@@ -296,13 +307,15 @@ def test_depth_camera_publishes_depth_image_and_cutoffs():
     # a plain camera has no depth topic unless it names one
     q, _ = _load(_variant(imageSize='8 6'))
     assert q.depth_topic is None
-    with pytest.raises(plugins.PluginError, match='pointCloudCutoffMax'):
-        _load(_variant(pointCloudCutoff='1', pointCloudCutoffMax='0.5'))
+    with caplog.at_level(logging.ERROR):
+        r, _ = _load(_variant(pointCloudCutoff='1', pointCloudCutoffMax='0.5'))
+    assert 'pointCloudCutoffMax must be more than pointCloudCutoff' in caplog.text
+    assert r.cutoff == (1.0, float('inf'))
 
 
 @pytest.mark.parametrize('fmt,encoding,channels', [('R8G8B8', 'rgb8', 3), ('B8G8R8', 'bgr8', 3),
                                                     ('L8', 'mono8', 1)])
-def test_image_format(fmt, encoding, channels):
+def test_image_format(fmt, encoding, channels, caplog):
     root = ET.fromstring(CLASSIC)
     root.find('camera').find('image').find('format').text = fmt
     p, _ = _load(ET.tostring(root, encoding='unicode'))
@@ -315,8 +328,10 @@ def test_image_format(fmt, encoding, channels):
     if channels == 3:
         assert np.array_equal(rgb, p.last_rgb)        # same picture whatever the order
     root.find('camera').find('image').find('format').text = 'BAYER_RGGB8'
-    with pytest.raises(plugins.PluginError, match='BAYER_RGGB8'):
-        _load(ET.tostring(root, encoding='unicode'))
+    with caplog.at_level(logging.ERROR):
+        q, _ = _load(ET.tostring(root, encoding='unicode'))
+    assert "imageFormat must be one of" in caplog.text and 'BAYER_RGGB8' in caplog.text
+    assert q.encoding == 'rgb8'
 
 
 def test_rate_change_applies_at_once_on_the_world():

@@ -11,13 +11,27 @@ import numpy as np
 
 from .transforms import Pose
 
-__all__ = ['ModelError', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
+__all__ = ['ModelError', 'parse_floats', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
            'Joint', 'PluginSpec', 'Light', 'Model', 'cuboid_inertia', 'cylinder_inertia',
            'sphere_inertia']
 
 
 class ModelError(ValueError):
     """A model description that cannot be loaded; the message names the problem."""
+
+
+def parse_floats(text, n, what):
+    """n finite numbers from a whitespace-separated text (URDF attributes, SDF elements);
+    ModelError naming ``what`` otherwise. The one number-list parser of both model formats."""
+    try:
+        vals = np.array([float(v) for v in (text or '').split()])
+    except ValueError:
+        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
+    if vals.shape != (n,):
+        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
+    if not np.all(np.isfinite(vals)):
+        raise ModelError('%s: %r has a non-finite number' % (what, text))
+    return vals
 
 
 class Geometry(object):

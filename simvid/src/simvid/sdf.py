@@ -35,7 +35,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .model import (Collision, Geometry, Inertial, Joint, Light, Link, Material, Model,
-                    ModelError, PluginSpec, Visual, _local)
+                    ModelError, PluginSpec, Visual, _local, parse_floats)
 from .transforms import InvalidPose, Pose
 
 __all__ = ['WorldDescription', 'load_world_file', 'parse_world', 'parse_sdf_model',
@@ -55,14 +55,7 @@ class WorldDescription(object):
         self.environment = None     # simvid.environment.Environment
 
 
-def _vec(text, n, what):
-    try:
-        vals = [float(v) for v in (text or '').split()]
-    except ValueError:
-        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
-    if len(vals) != n or not all(np.isfinite(vals)):
-        raise ModelError('%s: %r is not %d finite numbers' % (what, text, n))
-    return np.array(vals)
+_vec = parse_floats      # one number-list parser for URDF and SDF (simvid.model)
 
 
 def _child_text(el, tag, default=None):

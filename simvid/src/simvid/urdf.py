@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .model import (Collision, Geometry, Inertial, Joint, Link, Material, Model, ModelError,
-                    PluginSpec, Visual, _local)
+                    PluginSpec, Visual, _local, parse_floats)
 from .transforms import InvalidPose, Pose
 
 __all__ = ['load_urdf_file', 'parse_urdf', 'process_xacro', 'parse_pose_attrs']
@@ -64,16 +64,7 @@ def load_urdf_file(path, name=None, mappings=None):
     return parse_urdf(text, name=name, base_dir=os.path.dirname(os.path.abspath(path)))
 
 
-def _floats(text, n, what):
-    try:
-        vals = [float(v) for v in (text or '').split()]
-    except ValueError:
-        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
-    if len(vals) != n:
-        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
-    if not all(np.isfinite(vals)):
-        raise ModelError('%s: %r has a non-finite number' % (what, text))
-    return vals
+_floats = parse_floats   # one number-list parser for URDF and SDF (simvid.model)
 
 
 def _float_attr(el, attr, what, default=None):

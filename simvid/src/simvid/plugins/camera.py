@@ -32,6 +32,7 @@ import threading
 from . import Plugin, PluginError, register
 from ..model import _local
 from ..camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
+from .params import Param, ParamError, convert
 
 __all__ = ['CameraPlugin']
 
@@ -48,6 +49,42 @@ def _find(elem, *path):
     if cur is None or cur.text is None:
         return None
     return cur.text.strip()
+
+
+def _image_size(text):
+    parts = text.replace(',', ' ').split()
+    w, h = (int(p) for p in parts)
+    if not (0 < w <= 8192 and 0 < h <= 8192):
+        raise ValueError
+    return w, h
+
+
+_image_size.what = '"width height" in whole pixels, 1..8192'
+_PIXELS = (1, 8192)
+
+RATE_ROW = Param('updateRate', float, 0.0, aliases=('update_rate',), unit='Hz', check='>=0')
+
+#: the camera's parameters, both URDF syntaxes (thesis table 4.1 and Gazebo classic's SDF)
+CAMERA_PARAMS = [
+    Param('imageSize', _image_size, None, unit='px', doc='2011: "width height"'),
+    Param('width', int, 320, unit='px', check=_PIXELS, paths=[('camera', 'image', 'width')]),
+    Param('height', int, 240, unit='px', check=_PIXELS, paths=[('camera', 'image', 'height')]),
+    Param('hfov', float, None, unit='deg', check=lambda v: 0 < v < 180,
+          check_text='in (0, 180) degrees', doc='2011'),
+    Param('horizontal_fov', float, None, unit='rad', check=lambda v: 0 < v < math.pi,
+          check_text='in (0, pi) radians', paths=[('camera', 'horizontal_fov')]),
+    Param('nearClip', float, 0.02, unit='m', check='>0', paths=[('camera', 'clip', 'near')]),
+    Param('farClip', float, 100.0, unit='m', check='>0', paths=[('camera', 'clip', 'far')]),
+    Param('focal_length', float, 0.0, aliases=('focalLength',), unit='px', check='>=0'),
+    Param('Cx', float, 0.0, unit='px'),
+    Param('Cy', float, 0.0, unit='px'),
+    Param('imageFormat', tuple(sorted(IMAGE_FORMATS)), None,
+          paths=[('camera', 'image', 'format')]),
+    Param('pointCloudCutoff', float, 0.0, unit='m', check='>=0'),
+    Param('pointCloudCutoffMax', float, 0.0, unit='m', check='>=0'),
+] + [Param('distortion_' + n, float, 0.0, aliases=('distortion' + n.upper(),),
+           paths=[('camera', 'distortion', {'t1': 'p1', 't2': 'p2'}.get(n, n))])
+     for n in ('k1', 'k2', 't1', 't2', 'k3')]
 
 
 @register('libgazebo_ros_camera.so', 'libgazebo_ros_openni_kinect.so',
@@ -70,125 +107,57 @@ class CameraPlugin(Plugin):
         self._pubs = {}
         self._subs = []
 
-    # -- parameters --------------------------------------------------------------------------
-    def _number(self, text, what, positive=False, allow_zero=True):
+    # -- parameters (declared rows, simvid.plugins.params) -----------------------------------
+    def _value(self, row, text):
+        """``text`` converted by ``row``; a bad value: one error line and the default."""
+        if text is None:
+            return row.default
         try:
-            v = float(text)
-        except (TypeError, ValueError):
-            raise PluginError('%s: %s must be a number, got %r' % (self.label, what, text))
-        if not math.isfinite(v) or (positive and (v < 0 or (v == 0 and not allow_zero))):
-            raise PluginError('%s: %s must be a %snumber, got %r'
-                              % (self.label, what, 'positive ' if positive else 'finite ', text))
-        return v
-
-    @property
-    def label(self):
-        return '%s (model %s, link %s)' % (self.spec.filename, self.model.name, self.link)
-
-    def _sensor(self, *path):
-        return _find(self.spec.sensor, *path) if self.spec.sensor is not None else None
-
-    def _read_size(self):
-        size = self.param('imageSize')
-        if size is not None:
-            parts = size.replace(',', ' ').split()
-            try:
-                w, h = (int(float(p)) for p in parts)
-                if w != float(parts[0]) or h != float(parts[1]):
-                    raise ValueError
-            except ValueError:
-                raise PluginError('%s: <imageSize> must be "width height" in pixels, got %r'
-                                  % (self.label, size))
-        else:
-            ws = self._sensor('camera', 'image', 'width') or self.param('width')
-            hs = self._sensor('camera', 'image', 'height') or self.param('height')
-            w = self._number(ws, '<image><width>', positive=True) if ws is not None else 320
-            h = self._number(hs, '<image><height>', positive=True) if hs is not None else 240
-            if w != int(w) or h != int(h):
-                raise PluginError('%s: image width/height must be whole pixels, got %r x %r'
-                                  % (self.label, ws, hs))
-            w, h = int(w), int(h)
-        if not (0 < w <= 8192 and 0 < h <= 8192):
-            raise PluginError('%s: image size must be 1..8192 pixels, got %dx%d'
-                              % (self.label, w, h))
-        return w, h
-
-    def _read_hfov(self):
-        deg = self.param('hfov')
-        if deg is not None:           # 2011: degrees
-            hfov = math.radians(self._number(deg, '<hfov> (degrees)'))
-            what = '<hfov> %s degrees' % deg
-        else:
-            rad = self._sensor('camera', 'horizontal_fov') or self.param('horizontal_fov')
-            if rad is None:
-                return self.DEFAULT_HFOV
-            hfov = self._number(rad, '<horizontal_fov> (radians)')
-            what = '<horizontal_fov> %s radians' % rad
-        if not (0.0 < hfov < math.pi):
-            raise PluginError('%s: %s is outside (0, 180) degrees' % (self.label, what))
-        return hfov
+            return convert(row, text)
+        except ParamError as e:
+            self._error('%s: %s must be %s, got %r' % (self.label, row.name, e, text.strip()))
+            return row.default
 
     def _read_rate(self):
+        """The slowest positive of the sensor's <update_rate>/<updateRate> and the plugin's
+        <updateRate> (2011: sensor 30, controller 100 -> 30 Hz); 0 = every step."""
         rates = []
-        for text, what in ((self._sensor('update_rate'), '<update_rate>'),
-                           (self.spec.sensor is not None and _find(self.spec.sensor,
-                                                                    'updateRate'), '<updateRate>'),
-                           (_find(self.spec.element, 'updateRate')
-                            if self.spec.element is not None else None, 'plugin <updateRate>')):
-            if text:
-                r = self._number(text, what, positive=True)
-                if r > 0:
-                    rates.append(r)
+        texts = (_find(self.spec.sensor, 'update_rate') if self.spec.sensor is not None else None,
+                 _find(self.spec.sensor, 'updateRate') if self.spec.sensor is not None else None,
+                 _find(self.spec.element, 'updateRate') if self.spec.element is not None
+                 else None)
+        for text in texts:
+            r = self._value(RATE_ROW, text)
+            if r > 0:
+                rates.append(r)
         return min(rates) if rates else 0.0
-
-    def _read_clip(self):
-        near = self._sensor('camera', 'clip', 'near') or self.param('nearClip')
-        far = self._sensor('camera', 'clip', 'far') or self.param('farClip')
-        near = self._number(near, 'near clip', positive=True, allow_zero=False) \
-            if near is not None else 0.02
-        far = self._number(far, 'far clip', positive=True, allow_zero=False) \
-            if far is not None else 100.0
-        if not near < far:
-            raise PluginError('%s: near clip %g must be less than far clip %g'
-                              % (self.label, near, far))
-        return near, far
-
-    def _read_distortion(self):
-        out = []
-        for n in ('k1', 'k2', 't1', 't2', 'k3'):
-            text = self.param('distortion_' + n, 'distortion' + n.upper())
-            if text is None:
-                text = self._sensor('camera', 'distortion', {'t1': 'p1', 't2': 'p2'}.get(n, n))
-            out.append(self._number(text, '<distortion_%s>' % n) if text is not None else 0.0)
-        return out
 
     def load(self):
         self.link = self.spec.link or self.model.root_link
         if self.link not in self.model.links:
             raise PluginError('%s: camera link %r is not a link of the model'
                               % (self.label, self.link))
-        w, h = self._read_size()
-        hfov = self._read_hfov()
-        near, far = self._read_clip()
-        f = self._number(self.param('focal_length', 'focalLength', default='0'),
-                         '<focal_length>', positive=True)
-        cx = self._number(self.param('Cx', default='0'), '<Cx>')
-        cy = self._number(self.param('Cy', default='0'), '<Cy>')
-        dist = self._read_distortion()
+        p = self.p = self.parse(CAMERA_PARAMS)
+        w, h = p.imageSize if p.imageSize is not None else (p.width, p.height)
+        if p.hfov is not None:             # 2011: degrees
+            hfov = math.radians(p.hfov)
+        elif p.horizontal_fov is not None:
+            hfov = p.horizontal_fov
+        else:
+            hfov = self.DEFAULT_HFOV
+        near, far = p.nearClip, p.farClip
+        if not near < far:
+            self._error('%s: nearClip must be less than farClip, got %g and %g; using 0.02 and '
+                        '100' % (self.label, near, far))
+            near, far = 0.02, 100.0
+        dist = [getattr(p, 'distortion_' + n) for n in ('k1', 'k2', 't1', 't2', 'k3')]
         try:
-            self.camera = SimCamera(w, h, hfov, f, cx, cy, dist, near, far)
+            self.camera = SimCamera(w, h, hfov, p.focal_length, p.Cx, p.Cy, dist, near, far)
         except CameraModelError as e:
             raise PluginError('%s: %s' % (self.label, e))
         self.update_rate = self._read_rate()
         self.frame_id = self.param('frameName') or self.link
-        fmt = self._sensor('camera', 'image', 'format') or self.param('imageFormat')
-        if fmt is None:
-            self.encoding = 'rgb8'
-        elif fmt.strip() in IMAGE_FORMATS:
-            self.encoding = IMAGE_FORMATS[fmt.strip()]
-        else:
-            raise PluginError('%s: image format %r is not supported (use one of %s)'
-                              % (self.label, fmt, ', '.join(sorted(IMAGE_FORMATS))))
+        self.encoding = IMAGE_FORMATS[p.imageFormat] if p.imageFormat else 'rgb8'
         cam_name = (self.param('cameraName') or '').strip('/')
 
         def topic(names, default):
@@ -206,13 +175,11 @@ class CameraPlugin(Plugin):
         self.depth_topic = topic(('depthImageTopicName',), d) if d else None
         self.depth_info_topic = topic(('depthImageCameraInfoTopicName',),
                                       'depth/camera_info') if d else None
-        lo = self._number(self.param('pointCloudCutoff', default='0'), '<pointCloudCutoff>',
-                          positive=True)
-        hi = self._number(self.param('pointCloudCutoffMax', default='0'),
-                          '<pointCloudCutoffMax>', positive=True)
+        lo, hi = p.pointCloudCutoff, p.pointCloudCutoffMax
         if hi and hi <= lo:
-            raise PluginError('%s: <pointCloudCutoffMax> %g must be more than <pointCloudCutoff>'
-                              ' %g' % (self.label, hi, lo))
+            self._error('%s: pointCloudCutoffMax must be more than pointCloudCutoff, got %g and '
+                        '%g; no maximum' % (self.label, hi, lo))
+            hi = 0.0
         self.cutoff = (lo, hi or float('inf'))
         base = self.image_topic.rsplit('/', 1)[0]
         self.hfov_topic = base + '/set_hfov'
@@ -246,11 +213,7 @@ class CameraPlugin(Plugin):
                       self.image_topic, self.info_topic, self.points_topic)
 
     def _error(self, text):
-        if self._pubs:
-            import rospy
-            rospy.logerr(text)
-        else:
-            log.error(text)
+        (getattr(self.world, 'log', None) or log).error('%s', text)
 
     # -- run-time changes (rospy threads; applied in the world thread) ------------------------
     def _on_hfov(self, msg):

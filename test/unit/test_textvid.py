@@ -309,13 +309,22 @@ def test_unknown_or_unsuitable_body_is_a_clear_error():
         VideoPlugin(_spec('<bodyName>mobile_display</bodyName>'), _model(body_kind='cyl'),
                     FakeWorld()).load()
     assert 'box' in str(e.value)
-    with pytest.raises(plugins.PluginError) as e:
-        VideoPlugin(_spec('<bodyName>mobile_display</bodyName><face>top</face>'), _model(),
-                    FakeWorld()).load()
-    assert "'top'" in str(e.value)
-    with pytest.raises(plugins.PluginError):
-        VideoPlugin(_spec('<bodyName>mobile_display</bodyName><textureWidth>12.5'
-                          '</textureWidth>'), _model(), FakeWorld()).load()
+
+
+
+@pytest.mark.parametrize('xml, line', [
+    ('<face>top</face>', "face must be one of front, back, +x, -x, +y, -y, +z, -z, all, got 'top'"),
+    ('<textureWidth>12.5</textureWidth>', "textureWidth must be a whole number in [1, 4096], "
+                                          "got '12.5'"),
+    ('<updateRate>-1</updateRate>', "updateRate must be a number in [0, 1e+06], got '-1'"),
+])
+def test_bad_values_one_line_and_the_default(xml, line, caplog):
+    caplog.set_level(logging.ERROR)
+    p = VideoPlugin(_spec('<bodyName>mobile_display</bodyName>' + xml), _model(), FakeWorld())
+    p.load()
+    lines = [r.getMessage() for r in caplog.records]
+    assert lines == ['plugin libgazebo_ros_video.so of model phone: ' + line]
+    assert p.face == 'front' and p.update_rate == video.DEFAULT_RATE
 
 
 def test_create_logs_one_line_and_the_model_keeps_going(caplog):

@@ -39,6 +39,7 @@ import numpy as np
 
 from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array
 from simvid.plugins import Plugin, PluginError, register
+from simvid.plugins.params import Param
 
 __all__ = ['VideoTexture', 'VideoPlugin', 'ENCODINGS', 'FACES', 'BLUE', 'DEFAULT_SIZE']
 
@@ -204,8 +205,19 @@ class VideoTexture(object):
 class VideoPlugin(Plugin):
     """``libgazebo_ros_video.so``: a VideoTexture drawn on a face of a link's box."""
 
+    PARAMS = [
+        Param('bodyName', str, None, doc='the link whose box shows the video (required)'),
+        Param('face', FACES, 'front'),
+        Param('updateRate', float, DEFAULT_RATE, unit='Hz', check=(0.0, 1e6)),
+        Param('imageTopic', str, '/monitor/image_in'),
+        Param('imageLoad', str, '/monitor/load_file'),
+        Param('textureWidth', int, None, unit='px', check=(1, MAX_SIZE)),
+        Param('textureHeight', int, None, unit='px', check=(1, MAX_SIZE)),
+    ]
+
     def load(self):
-        body = self.param('bodyName')
+        p = self.p = self.parse(self.PARAMS)
+        body = p.bodyName
         if not body:
             raise PluginError('parameter <bodyName> is missing: it must name the link of '
                               'model %r that shows the video (links: %s)'
@@ -218,17 +230,11 @@ class VideoPlugin(Plugin):
             raise PluginError('link %r of model %r has no box visual to show the video on'
                               % (body, self.model.name))
         self.body = body
-        face = (self.param('face', default='front') or 'front').strip()
-        if face not in FACES:
-            raise PluginError('<face> %r is not one of %s' % (face, ', '.join(FACES)))
-        self.face = face
+        self.face = p.face
         self.size = self._texture_size(boxes[0].geometry.size)
-        rate = self.float_param('updateRate', default=DEFAULT_RATE)
-        if not (rate >= 0 and rate < 1e6):
-            raise PluginError('<updateRate> must be >= 0 Hz, got %r' % rate)
-        self.update_rate = rate
-        self.image_topic = self.resolve(self.param('imageTopic', default='/monitor/image_in'))
-        self.load_topic = self.resolve(self.param('imageLoad', default='/monitor/load_file'))
+        self.update_rate = p.updateRate
+        self.image_topic = self.resolve(p.imageTopic)
+        self.load_topic = self.resolve(p.imageLoad)
         label = 'video texture %s/%s' % (self.model.name, body)
         self.texture = VideoTexture(self.size[0], self.size[1], name=label,
                                     logger=self._log_error)
@@ -258,15 +264,8 @@ class VideoPlugin(Plugin):
         """Texture (width, height): <textureWidth>/<textureHeight> when given, else
         LONG_SIDE pixels on the long side of the face and its aspect ratio on the other
         (so the display's pixels are square)."""
-        given = []
-        for name in ('textureWidth', 'textureHeight'):
-            v = self.float_param(name)
-            if v is not None and not (v == int(v) and 0 < v <= MAX_SIZE):
-                raise PluginError('<%s> must be a whole number of pixels in 1..%d, got %r'
-                                  % (name, MAX_SIZE, v))
-            given.append(None if v is None else int(v))
         fw, fh = self.face_extent(box_size)
-        w, h = given
+        w, h = self.p.textureWidth, self.p.textureHeight
         if w is not None and h is not None:
             return w, h
         if w is None and h is None:

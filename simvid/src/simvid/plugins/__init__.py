@@ -67,6 +67,12 @@ class Plugin(object):
 
     #: library names this class answers to (filled by @register)
     names = ()
+    #: declared parameters (simvid.plugins.params.Param rows; the README tables come from them)
+    PARAMS = []
+
+    @classmethod
+    def param_rows(cls):
+        return list(cls.PARAMS)
 
     def __init__(self, spec, model, world):
         self.spec = spec

@@ -90,9 +90,12 @@ CAMERA_PARAMS = [
 @register('libgazebo_ros_camera.so', 'libgazebo_ros_openni_kinect.so',
           'libgazebo_ros_depth_camera.so')
 class CameraPlugin(Plugin):
-    """See module doc. ``self.camera`` is the ROS-free ``SimCamera``."""
+    """The sim camera (thesis 4.1, table 4.1): image_raw, camera_info, points, depth.
+
+    See the module doc. ``self.camera`` is the ROS-free ``SimCamera``."""
 
     DEFAULT_HFOV = math.radians(60.0)
+    PARAMS = CAMERA_PARAMS + [RATE_ROW]
 
     def __init__(self, spec, model, world):
         Plugin.__init__(self, spec, model, world)

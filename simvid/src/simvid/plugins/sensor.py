@@ -144,6 +144,10 @@ class Sensor(Plugin):
             d.pop('sdf', None)
             aliases = d.pop('aliases', None)
             rows.extend(error_params(prefix, dims, d, aliases))
+        rows = [Param(r.name, r.type, cls.DEFAULT_RATE, r.aliases, r.unit, r.check, r.doc)
+                if r.name == 'updateRate' else
+                Param(r.name, r.type, cls.DEFAULT_TOPIC, r.aliases, r.unit, r.check, r.doc)
+                if r.name == 'topicName' else r for r in rows]
         names = set()
         out = []
         for r in rows + list(cls.PARAMS):     # a sensor's own row replaces a base row

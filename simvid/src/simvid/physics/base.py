@@ -19,6 +19,12 @@ Interface (``PhysicsEngine``; ``simvid.world.World`` uses nothing else)::
     engine.in_contact(name)          # True if the model touches something in its current
                                      # state (penetration depth >= 0), i.e. in the contact
                                      # pass that follows the last step
+    engine.contacts(name, link=None) # [Contact] of the model's (or one link's) collision
+                                     # shapes with anything else, in the current state:
+                                     # .model .link (of name), .other_model .other_link,
+                                     # .position (3,) world, .normal (3,) world, pointing
+                                     # from the other body into this one (moving this one
+                                     # along it separates them), .depth (m, >= 0)
     engine.step(n=1)                 # n fixed steps of step_size
     engine.set_gravity(g)
     engine.close()                   # frees the native world (Bullet's client)
@@ -60,8 +66,8 @@ import numpy as np
 from ..model import Model, ModelError
 from ..transforms import InvalidPose, Pose, matrix_to_quat
 
-__all__ = ['PhysicsEngine', 'BodySpec', 'lump_model', 'load_mesh', 'mesh_boxes', 'check_pose',
-           'check_vector']
+__all__ = ['PhysicsEngine', 'BodySpec', 'Contact', 'lump_model', 'load_mesh', 'mesh_boxes',
+           'check_pose', 'check_vector']
 
 log = logging.getLogger('simvid.physics')
 
@@ -195,6 +201,24 @@ def _fill_inside(shell):
             break
         outside = grown
     return ~outside[1:-1, 1:-1, 1:-1]
+
+
+class Contact(object):
+    """One contact point of ``model``/``link`` with ``other_model``/``other_link`` (see
+    ``PhysicsEngine.contacts``)."""
+    __slots__ = ('model', 'link', 'other_model', 'other_link', 'position', 'normal', 'depth')
+
+    def __init__(self, model, link, other_model, other_link, position, normal, depth):
+        self.model, self.link = model, link
+        self.other_model, self.other_link = other_model, other_link
+        self.position = np.asarray(position, float)
+        self.normal = np.asarray(normal, float)
+        self.depth = float(depth)
+
+    def __repr__(self):
+        return '<Contact %s::%s - %s::%s at %s depth %.2g>' % (
+            self.model, self.link, self.other_model, self.other_link,
+            np.round(self.position, 4).tolist(), self.depth)
 
 
 class Shape(object):
@@ -464,6 +488,15 @@ class PhysicsEngine(object):
 
     def in_contact(self, name):
         raise NotImplementedError
+
+    def contacts(self, name, link=None):
+        raise NotImplementedError
+
+    def _check_link(self, name, link):
+        rec = self._get(name)
+        if link is not None and link not in rec.spec.link_offsets:
+            raise KeyError('model %r has no link %r' % (name, link))
+        return rec
 
     def step(self, n=1):
         raise NotImplementedError

@@ -23,7 +23,7 @@ import tempfile
 import numpy as np
 import pybullet as p
 
-from .base import FRICTION, PhysicsEngine
+from .base import FRICTION, Contact, PhysicsEngine
 from ..model import ModelError
 from ..transforms import Pose
 
@@ -246,6 +246,59 @@ class BulletEngine(PhysicsEngine):
                 if pt[8] <= 0.0:
                     return True
         return False
+
+    def contacts(self, name, link=None):
+        """Contact points (contactDistance <= 0) of the model with every other body, from
+        ``getContactPoints`` after one collision detection pass on the current state. A
+        moving model is one compound body and pybullet does not say which child shape a
+        point belongs to, so each point goes to the link whose shape surface is nearest to
+        it (exact for touching boxes: a display box on a phone body)."""
+        rec = self._check_link(name, link)
+        c = self._c
+        if not self._contacts_valid:
+            p.performCollisionDetection(physicsClientId=c)
+            self._contacts_valid = True
+        owner = {}
+        for r in self._models.values():
+            if r.native is not None:
+                for bid, shape in r.native['bodies']:
+                    owner[bid] = (r, shape)
+        out = []
+        for bid, shape in rec.native['bodies']:
+            for pt in p.getContactPoints(bodyA=bid, physicsClientId=c):
+                if pt[8] > 0.0 or pt[2] not in owner:
+                    continue
+                other, oshape = owner[pt[2]]
+                if other is rec:
+                    continue
+                mine = shape.link if shape is not None else self._nearest_link(rec, pt[5])
+                if link is not None and mine != link:
+                    continue
+                olink = oshape.link if oshape is not None else self._nearest_link(other, pt[6])
+                out.append(Contact(name, mine, other.name, olink, pt[5], pt[7], -pt[8]))
+        return out
+
+    def _nearest_link(self, rec, point):
+        """The link of ``rec`` whose collision shape surface is nearest to a world point."""
+        local = self.model_pose(rec.name).inverse() * np.asarray(point, float) \
+            if not rec.static else rec.pose.inverse() * np.asarray(point, float)
+        best, best_d = None, np.inf
+        for shape in rec.spec.shapes:
+            q = shape.pose.inverse() * local
+            g = shape.geometry
+            if g.kind == 'box':
+                d = np.abs(q) - np.asarray(g.size, float) / 2
+                dist = abs(np.linalg.norm(np.maximum(d, 0)) + min(d.max(), 0.0))
+            elif g.kind == 'sphere':
+                dist = abs(np.linalg.norm(q) - g.radius)
+            elif g.kind == 'cylinder':
+                d = np.array([np.hypot(q[0], q[1]) - g.radius, abs(q[2]) - g.length / 2])
+                dist = abs(np.linalg.norm(np.maximum(d, 0)) + min(d.max(), 0.0))
+            else:
+                dist = 0.0 if g.kind == 'plane' else float(np.linalg.norm(q)) * 1e-3
+            if dist < best_d:
+                best, best_d = shape.link, dist
+        return best
 
     def close(self):
         if self._c is not None and self._c >= 0:

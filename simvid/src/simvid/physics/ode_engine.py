@@ -27,7 +27,7 @@ changes nothing measurable for the office's single bodies on boxes).
 import numpy as np
 import ode
 
-from .base import FRICTION, PhysicsEngine, mesh_boxes
+from .base import FRICTION, Contact, PhysicsEngine, mesh_boxes
 from ..transforms import Pose
 
 __all__ = ['OdeEngine']
@@ -238,6 +238,43 @@ class OdeEngine(PhysicsEngine):
         if self._dirty:
             self._collide()
         return name in self._touching
+
+    def contacts(self, name, link=None):
+        """Contact points of the model's (or one link's) geoms with every other model's,
+        from ``ode.collide`` on the current state (see the base class)."""
+        rec = self._check_link(name, link)
+        gm = self._geom_model
+        links = dict((g, shape.link) for g, shape, _ in rec.native['geoms'])
+        others = {}
+        for r in self._models.values():
+            if r.name != name and r.native is not None:
+                for g, shape, _ in r.native['geoms']:
+                    others[g] = shape.link
+        out = []
+
+        def near(_arg, g1, g2):
+            mine, other = (g1, g2) if g1 in links else (g2, g1)
+            if other not in others or mine not in links:
+                return
+            for c in ode.collide(mine, other)[:MAX_CONTACTS]:
+                pos, normal, depth, cg1, _ = c.getContactGeomParams()
+                n = np.asarray(normal, float)
+                if cg1 is not mine:      # ODE: the normal points into the first geom
+                    n = -n
+                out.append(Contact(name, links[mine], gm.get(other), others[other], pos, n,
+                                   max(0.0, depth)))
+
+        for g, shape, _ in rec.native['geoms']:
+            if link is not None and shape.link != link:
+                continue
+            if shape.geometry.kind == 'plane':
+                ode.collide2(g, self._dyn_space, None, near)
+                continue
+            ode.collide2(g, self._dyn_space, None, near)
+            ode.collide2(g, self._static_space, None, near)
+            for plane, _, _ in self._planes:
+                near(None, g, plane)
+        return out
 
     def close(self):
         for name in list(self._models):

@@ -24,6 +24,9 @@ with a thinner surface layer so resting bodies sink at most 0.1 mm), 20 quickSte
 iterations (ODE's default; Gazebo uses 50, which costs 2.5x more per resting contact and
 changes nothing measurable for the office's single bodies on boxes).
 """
+import ctypes
+import ctypes.util
+
 import numpy as np
 import ode
 
@@ -33,6 +36,23 @@ from ..transforms import Pose
 __all__ = ['OdeEngine']
 
 MAX_CONTACTS = 16
+
+
+def _ode_rand():
+    """libode's dRandGetSeed/dRandSetSeed: quickStep reorders constraints at random from
+    ONE process-wide generator, so two worlds in one process (or one world after another)
+    would not repeat. Each engine keeps its own state and swaps it in around its steps."""
+    try:
+        lib = ctypes.CDLL(ctypes.util.find_library('ode') or 'libode.so.8')
+        get, put = lib.dRandGetSeed, lib.dRandSetSeed
+        get.restype, get.argtypes = ctypes.c_ulong, []
+        put.restype, put.argtypes = None, [ctypes.c_ulong]
+        return get, put
+    except (OSError, AttributeError):
+        return None, None
+
+
+_RAND_GET, _RAND_SET = _ode_rand()
 
 
 def _wxyz(q):
@@ -58,10 +78,14 @@ class OdeEngine(PhysicsEngine):
         self._contacts = ode.JointGroup()
         self._n_contacts = 0
         self._geom_model = {}        # geom -> model name
+        self._geom_seq = {}          # geom -> creation number (a stable order of pairs)
+        self._pending = []           # colliding pairs of one pass, joined in a stable order
+        self._seq_next = 0
         self._touching = set()
         self._dirty = True           # contacts must be recomputed before the next step
         self._contact_mode = ode.ContactApprox1
         self._mesh_boxes = {}        # id(mesh arrays) -> (mesh arrays, [(centre, size)])
+        self._rand_state = 0         # this world's libode random state (see _ode_rand)
 
     # ---- building ----------------------------------------------------------------------
     def _make_geoms(self, shape, space):
@@ -120,12 +144,15 @@ class OdeEngine(PhysicsEngine):
             rec.native = {'body': body, 'geoms': geoms}
         for geom, _, _ in geoms:
             self._geom_model[geom] = rec.name
+            self._seq_next += 1
+            self._geom_seq[geom] = self._seq_next
         self._dirty = True
 
     def _remove(self, rec):
         self._clear_contacts()
         for geom, shape, _ in rec.native['geoms']:
             self._geom_model.pop(geom, None)
+            self._geom_seq.pop(geom, None)
             if shape.geometry.kind == 'plane':
                 self._planes = [p for p in self._planes if p[0] is not geom]
             else:
@@ -186,20 +213,31 @@ class OdeEngine(PhysicsEngine):
 
     # ---- contacts and stepping -------------------------------------------------------------
     def _near(self, _arg, g1, g2):
+        # ODE's hash space reports pairs in an order that depends on memory addresses:
+        # collect them and make the contact joints in creation order (see _join), so the
+        # same world gives the same solver input, bit for bit, in every run
+        seq = self._geom_seq
+        if seq.get(g1, 0) > seq.get(g2, 0):
+            g1, g2 = g2, g1
         contacts = ode.collide(g1, g2)
-        if not contacts:
-            return
-        b1, b2 = g1.getBody(), g2.getBody()
+        if contacts:
+            self._pending.append((seq.get(g1, 0), seq.get(g2, 0), g1, g2, contacts))
+
+    def _join(self):
         world, group, mode = self._world, self._contacts, self._contact_mode
-        for c in contacts[:MAX_CONTACTS]:
-            c.setMode(mode)
-            c.setMu(FRICTION)
-            j = ode.ContactJoint(world, group, c)
-            j.attach(b1, b2)
-        self._n_contacts += 1
         gm = self._geom_model
-        self._touching.add(gm.get(g1))
-        self._touching.add(gm.get(g2))
+        self._pending.sort(key=lambda e: (e[0], e[1]))
+        for _, _, g1, g2, contacts in self._pending:
+            b1, b2 = g1.getBody(), g2.getBody()
+            for c in contacts[:MAX_CONTACTS]:
+                c.setMode(mode)
+                c.setMu(FRICTION)
+                j = ode.ContactJoint(world, group, c)
+                j.attach(b1, b2)
+            self._n_contacts += 1
+            self._touching.add(gm.get(g1))
+            self._touching.add(gm.get(g2))
+        self._pending = []
 
     def _clear_contacts(self):
         if self._n_contacts:
@@ -223,15 +261,20 @@ class OdeEngine(PhysicsEngine):
                            + (z0 if n[2] > 0 else z1) * n[2])
                     if low <= d:
                         ode.collide2(dyn, geom, None, self._near)
+            self._join()
         self._dirty = False
 
     def step(self, n=1):
         world, dt = self._world, self.step_size
+        if _RAND_SET is not None:
+            _RAND_SET(self._rand_state)
         for _ in range(int(n)):
             if self._dirty:
                 self._collide()
             world.quickStep(dt)
             self._collide()
+        if _RAND_GET is not None:
+            self._rand_state = _RAND_GET()
 
     def in_contact(self, name):
         self._get(name)

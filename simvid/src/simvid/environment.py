@@ -42,6 +42,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from .model import _local
+
 __all__ = ['Environment', 'IndoorVolume', 'EnvironmentError', 'VALUES', 'parse_environment']
 
 G0 = 9.80665          # m/s^2, standard gravity (ICAO)
@@ -368,14 +370,6 @@ class Environment(object):
 
 
 # -- parsing -----------------------------------------------------------------------------------------
-def _local(tag):
-    if not isinstance(tag, str):
-        return ''
-    if '}' in tag:
-        tag = tag.split('}', 1)[1]
-    return tag.split(':')[-1]
-
-
 def _child(el, name):
     return next((c for c in el if _local(c.tag) == name), None)
 

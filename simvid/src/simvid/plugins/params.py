@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from ..model import _local
+
 __all__ = ['Param', 'ParamValues', 'parse_params', 'convert', 'describe', 'ParamError']
 
 
@@ -167,14 +169,6 @@ class ParamValues(object):
 
     def __contains__(self, name):
         return hasattr(self, name)
-
-
-def _local(tag):
-    if not isinstance(tag, str):
-        return ''
-    if '}' in tag:
-        tag = tag.split('}', 1)[1]
-    return tag.split(':')[-1]
 
 
 def find_text(spec, row):

@@ -90,7 +90,7 @@ def test_injected_tap_and_swipe(world):
     world.step(100)
     ev = list(t.events)
     assert ev[0][1:5] == (DOWN, 0, 100, 200) and ev[-1][1] == UP
-    assert 0.05 < ev[-1][0] <= 0.05 + 2 / 120.0 + 1e-9
+    assert 0.05 < ev[-1][0] <= 0.05 + 2 / 100.0 + 1e-9
     t.events.clear()
     ok, _, _ = t.inject_touch(50, 400, 0.1, 0.9, 250, 100)
     assert ok

@@ -31,7 +31,7 @@ the same events.
 Topics (robot namespace): ``touch`` (mobile_device_sim/TouchEvent, on events), ``buttons``
 (mobile_device_sim/ButtonEvent, on events), ``contacts`` (mobile_device_sim/ContactsState,
 gazebo_msgs' md5sum, every tick while subscribed, the contacts of the display and the
-buttons). The contacts are sampled at ``updateRate`` (default 120 Hz of sim time, a phone
+buttons). The contacts are sampled at ``updateRate`` (default 100 Hz of sim time, a phone
 touch controller's report rate).
 """
 import threading
@@ -109,7 +109,7 @@ class PointerTracker(object):
 @register('libgazebo_ros_touch.so', 'libgazebo_ros_touch_sensor.so')
 class TouchScreen(Sensor):
     DEFAULT_TOPIC = 'touch'
-    DEFAULT_RATE = 120.0
+    DEFAULT_RATE = 100.0
     ALWAYS_MEASURE = True          # events depend on the history (pointer ids, DOWN/UP)
     PUBLISH_EVERY_TICK = False
     PARAMS = [

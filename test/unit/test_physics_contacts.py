@@ -86,3 +86,17 @@ def test_contact_with_static_world(engine):
     assert cs and all(c.other_model == 'table' and c.other_link == 'top' for c in cs)
     assert np.mean([c.normal[2] for c in cs]) == pytest.approx(1.0, abs=1e-3)
     assert engine.contacts('phone', 'screen') == []
+
+
+def test_contacts_after_a_teleport(engine):
+    """Contacts describe the pose just set, before any step (fresh bounding boxes)."""
+    table = parse_urdf('''<robot name="table"><link name="top">
+      <collision><geometry><box size="1 1 0.1"/></geometry></collision></link></robot>''')
+    table.static = True
+    add(engine, PHONE, Pose((0, 0, 2)))
+    add(engine, table, Pose((0, 0, 0.5)))
+    engine.step(1)
+    assert engine.contacts('phone') == []
+    engine.set_model_pose('phone', Pose((0.1, 0, 0.5 + 0.05 + 0.005 - 0.0003)))
+    cs = engine.contacts('phone', 'body')
+    assert cs and all(c.other_model == 'table' for c in cs)

@@ -286,6 +286,8 @@ class OdeEngine(PhysicsEngine):
         """Contact points of the model's (or one link's) geoms with every other model's,
         from ``ode.collide`` on the current state (see the base class)."""
         rec = self._check_link(name, link)
+        if self._dirty:            # a teleport since the last pass: fresh bounding boxes
+            self._collide()
         gm = self._geom_model
         links = dict((g, shape.link) for g, shape, _ in rec.native['geoms'])
         others = {}

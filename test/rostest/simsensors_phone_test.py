@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""rostest: the phone's proximity, ambient light, touch/buttons and battery topics with a
+real roscore (simsensors_phone.test)."""
+import subprocess
+import time
+import unittest
+
+import rosgraph
+import rospy
+import rostest
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import BatteryState, Illuminance, Range
+from std_msgs.msg import Bool, ColorRGBA
+
+from mobile_device_sim.msg import ButtonEvent, ContactsState, PowerState, TouchEvent
+from mobile_device_sim.srv import GetModelState
+
+NS = '/mobile_device/'
+# topic -> (documented type, class, rate in Hz of sim time or None for event topics)
+TOPICS = {
+    'proximity': ('sensor_msgs/Range', Range, None),
+    'illuminance': ('sensor_msgs/Illuminance', Illuminance, 5.0),
+    'light_color': ('std_msgs/ColorRGBA', ColorRGBA, None),
+    'touch': ('mobile_device_sim/TouchEvent', TouchEvent, None),
+    'buttons': ('mobile_device_sim/ButtonEvent', ButtonEvent, None),
+    'contacts': ('mobile_device_sim/ContactsState', ContactsState, 100.0),
+    'power_state': ('mobile_device_sim/PowerState', PowerState, 10.0),
+    'battery_state': ('sensor_msgs/BatteryState', BatteryState, 1.0),
+}
+
+
+class Recorder(object):
+    def __init__(self, topic, cls):
+        self.msgs = []
+        self.sub = rospy.Subscriber(topic, cls, self.msgs.append, queue_size=1000)
+
+
+class PhoneSensors(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('simsensors_phone_test')
+        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
+        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
+        deadline = time.time() + 60
+        while time.time() < deadline and not get('mobile_device', 'world').success:
+            time.sleep(0.2)
+        cls.rec = dict((t, Recorder(NS + t, c)) for t, (_, c, _) in TOPICS.items())
+        rospy.wait_for_service(NS + 'inject_touch', timeout=30)
+        cls.sim_sleep(3.0)
+
+    @staticmethod
+    def sim_now():
+        return rospy.wait_for_message('/clock', Clock, timeout=30).clock.to_sec()
+
+    @classmethod
+    def sim_sleep(cls, seconds):
+        start = cls.sim_now()
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if cls.sim_now() - start >= seconds:
+                return
+        raise AssertionError('sim time did not advance')
+
+    def test_types_and_rates(self):
+        types = dict(rosgraph.Master('/test').getTopicTypes())
+        for topic, (typ, _, rate) in sorted(TOPICS.items()):
+            self.assertEqual(types.get(NS + topic), typ, topic)
+            if rate is None:
+                continue
+            msgs = [m for m in self.rec[topic].msgs if hasattr(m, 'header')]
+            stamps = [m.header.stamp.to_sec() for m in msgs]
+            self.assertGreater(len(stamps), 3, topic)
+            measured = (len(stamps) - 1) / (stamps[-1] - stamps[0])
+            self.assertAlmostEqual(measured, rate, delta=0.1 * rate, msg=topic)
+        # proximity: on change plus a repeat every second of sim time
+        prox = self.rec['proximity'].msgs
+        self.assertGreaterEqual(len(prox), 2)
+        self.assertEqual(prox[0].radiation_type, Range.INFRARED)
+        self.assertEqual(self.rec['light_color'].msgs[-1].a, 1.0)
+
+    def test_office_light_and_battery_values(self):
+        lux = self.rec['illuminance'].msgs[-1].illuminance
+        self.assertTrue(100 < lux < 1000, lux)
+        ps = self.rec['power_state'].msgs[-1]
+        self.assertEqual(ps.AC_present, 0)
+        self.assertGreater(ps.power_consumption, 0.1)
+        bs = self.rec['battery_state'].msgs[-1]
+        self.assertLess(bs.current, 0)
+        self.assertEqual(bs.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+
+    def rosservice(self, *args):
+        out = subprocess.run(['rosservice', 'call'] + list(args), stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True, timeout=60)
+        return out.stdout
+
+    def test_inject_touch_and_press_button_via_rosservice(self):
+        n = len(self.rec['touch'].msgs)
+        out = self.rosservice(NS + 'inject_touch',
+                              '{x: 150, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
+        self.assertIn('success: True', out)
+        nb = len(self.rec['buttons'].msgs)
+        out = self.rosservice(NS + 'press_button', '{button: power, duration: 0.1}')
+        self.assertIn('success: True', out)
+        self.sim_sleep(1.0)
+        ev = self.rec['touch'].msgs[n:]
+        self.assertEqual([e.action for e in ev][0], TouchEvent.DOWN)
+        self.assertEqual([e.action for e in ev][-1], TouchEvent.UP)
+        self.assertAlmostEqual(ev[0].x, 150, places=3)
+        self.assertAlmostEqual(ev[0].y, 250, places=3)
+        self.assertEqual((ev[0].width, ev[0].height), (307, 512))
+        self.assertAlmostEqual(ev[-1].header.stamp.to_sec() - ev[0].header.stamp.to_sec(), 0.2,
+                               delta=2 / 100.0)
+        be = self.rec['buttons'].msgs[nb:]
+        self.assertEqual([(b.button, b.state) for b in be],
+                         [('power', ButtonEvent.PRESSED), ('power', ButtonEvent.RELEASED)])
+        # bad input: refused with a reason, nothing happens
+        out = self.rosservice(NS + 'inject_touch',
+                              '{x: -5, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
+        self.assertIn('success: False', out)
+        self.assertIn('outside the display', out)
+        out = self.rosservice(NS + 'press_button', '{button: home, duration: 0.1}')
+        self.assertIn('success: False', out)
+
+    def test_charger(self):
+        pub = rospy.Publisher(NS + 'charger', Bool, queue_size=1, latch=True)
+        pub.publish(Bool(True))
+        self.sim_sleep(1.5)
+        self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 1)
+        self.assertLess(self.rec['power_state'].msgs[-1].power_consumption, 0.001)
+        self.assertEqual(self.rec['battery_state'].msgs[-1].power_supply_status,
+                         BatteryState.POWER_SUPPLY_STATUS_FULL)
+        pub.publish(Bool(False))
+        self.sim_sleep(1.5)
+        self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 0)
+
+if __name__ == '__main__':
+    rostest.rosrun('mobile_device_sim', 'simsensors_phone', PhoneSensors)

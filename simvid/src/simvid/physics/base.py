@@ -52,7 +52,8 @@ and one warning says so. ODE: ``Body.setGravityMode(False)``; Bullet: a force op
 gravity is applied at the centre of mass before each step.
 
 Collisions: box, sphere, cylinder (axis z), plane (infinite, static models only) and mesh
-(loaded with trimesh). Bullet: static meshes are exact concave triangle meshes, meshes of
+(read by simvid.mesh, the loader the renderer uses: Collada units and up axis applied, so
+a mesh collides where it is drawn). Bullet: static meshes are exact concave triangle meshes, meshes of
 moving models their convex hulls. ODE: Debian's python3-pyode is built without trimesh
 support, so a mesh becomes a set of boxes from a voxelisation (``mesh_boxes``, 24 voxels
 along its longest extent, exact for box-shaped meshes, within one voxel otherwise).
@@ -63,6 +64,7 @@ import math
 
 import numpy as np
 
+from .. import mesh as _mesh
 from ..model import Model, ModelError
 from ..transforms import InvalidPose, Pose, matrix_to_quat
 
@@ -73,9 +75,6 @@ log = logging.getLogger('simvid.physics')
 
 #: Coulomb friction coefficient of every contact (Gazebo's default surface mu)
 FRICTION = 1.0
-
-_mesh_cache = {}
-
 
 def check_pose(pose, what):
     """Raise InvalidPose unless ``pose`` has a finite position and a normalisable
@@ -106,24 +105,15 @@ def check_vector(v, what):
 
 
 def load_mesh(path, scale=(1.0, 1.0, 1.0)):
-    """(vertices Nx3 float64, faces Mx3 int32) of a mesh file, scaled; cached.
-    Raises ModelError naming the file when it cannot be read."""
-    key = (path, tuple(float(s) for s in scale))
-    if key in _mesh_cache:
-        return _mesh_cache[key]
+    """(vertices Nx3 float64, faces Mx3 int32) of a mesh file in the model frame, scaled,
+    vertices merged by position; read by ``simvid.mesh.load``, the loader the renderer uses
+    too (Collada units and up axis, winding repair, cache per file and scale), so a mesh
+    collides where it is drawn. Raises ModelError naming the file when it cannot be read."""
     try:
-        import trimesh
-        mesh = trimesh.load(path, force='mesh')
-        verts = np.asarray(mesh.vertices, dtype=float) * np.asarray(scale, dtype=float)
-        faces = np.asarray(mesh.faces, dtype=np.int32)
-    except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
-        raise ModelError('cannot load mesh %r: %s' % (path, e))
-    if len(verts) == 0 or len(faces) == 0:
-        raise ModelError('mesh %r has no triangles' % path)
-    if not np.all(np.isfinite(verts)):
-        raise ModelError('mesh %r has non-finite vertices' % path)
-    _mesh_cache[key] = (verts, faces)
-    return verts, faces
+        lm = _mesh.load(path, scale)
+        return lm.vertices, lm.faces
+    except _mesh.MeshLoadError as e:
+        raise ModelError(str(e))
 
 
 def mesh_boxes(verts, faces, cells=24):

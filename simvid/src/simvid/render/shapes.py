@@ -2,9 +2,9 @@
 
 Every shape becomes a ``MeshData``: non-indexed triangles as float32 arrays of positions,
 normals and texture coordinates (3 vertices per triangle), in the visual's frame, with the
-geometry's scale applied. Meshes (OBJ, STL, DAE, PLY ... through trimesh; Collada through
-pycollada with its ``<unit meter>`` and ``<up_axis>``) get consistent winding and normals
-computed from their faces: smooth within a crease angle, flat across sharper edges. A mesh
+geometry's scale applied. Mesh files are read by ``simvid.mesh`` (the loader physics uses
+too: trimesh, Collada's ``<unit meter>`` and ``<up_axis>``, consistent winding); here they get
+normals computed from their faces: smooth within a crease angle, flat across sharper edges. A mesh
 that is not closed is marked ``double_sided`` so the renderer draws both sides lit.
 
 Box faces and texture coordinates: a box is six faces in the order of ``BOX_FACES``; the
@@ -16,9 +16,11 @@ Texture coordinate t = 0 is the image's top row.
 """
 import logging
 import math
-import os
 
 import numpy as np
+
+from .. import mesh as _mesh
+from ..mesh import MeshLoadError
 
 __all__ = ['MeshData', 'MeshLoadError', 'BOX_FACES', 'box', 'cylinder', 'sphere', 'plane',
            'load_mesh', 'crease_normals', 'geometry_mesh']
@@ -28,10 +30,6 @@ log = logging.getLogger('simvid.render')
 BOX_FACES = ('+x', '-x', '+y', '-y', '+z', '-z')
 _AXES = {'+x': (0, 1.0), '-x': (0, -1.0), '+y': (1, 1.0), '-y': (1, -1.0),
          '+z': (2, 1.0), '-z': (2, -1.0)}
-
-
-class MeshLoadError(ValueError):
-    """A mesh file that cannot be read; the message names the file and the cause."""
 
 
 class MeshData(object):
@@ -216,7 +214,7 @@ def crease_normals(vertices, faces, angle_deg=40.0):
     unit = np.zeros_like(cross)
     ok = area2 > 1e-20
     unit[ok] = cross[ok] / area2[ok, None]
-    vid, _ = _merge_ids(v)                        # merge vertices by position
+    vid, _ = _mesh.merge_ids(v)                        # merge vertices by position
     corner_v = vid[f].reshape(-1)
     corner_f = np.repeat(np.arange(m), 3)
     order = np.argsort(corner_v, kind='stable')
@@ -257,26 +255,6 @@ def crease_normals(vertices, faces, angle_deg=40.0):
     return out
 
 
-def _collada_fix(path):
-    """(scale, 3x3 rotation) that Collada's <unit meter> and <up_axis> ask for."""
-    try:
-        import collada
-        doc = collada.Collada(path, ignore=[collada.DaeUnsupportedError,
-                                            collada.DaeBrokenRefError])
-        unit = doc.assetInfo.unitmeter or 1.0
-        up = str(doc.assetInfo.upaxis or 'Z_UP')
-    except Exception as e:  # noqa: BLE001 - pycollada raises many kinds
-        log.warning('cannot read Collada asset info of %s (%s); assuming metres, Z_UP', path, e)
-        return 1.0, np.eye(3)
-    if up.endswith('Y_UP'):
-        rot = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])      # y up -> z up
-    elif up.endswith('X_UP'):
-        rot = np.array([[0, 0, -1.0], [0, 1, 0], [1, 0, 0]])      # x up -> z up
-    else:
-        rot = np.eye(3)
-    return float(unit), rot
-
-
 def _image_of(visual):
     """RGBA uint8 image of a trimesh TextureVisuals' material, or None."""
     mat = getattr(visual, 'material', None)
@@ -312,144 +290,28 @@ def _color_of(visual):
     return None
 
 
-def _merge_ids(v):
-    scale = max(float(np.abs(v).max()) if len(v) else 1.0, 1e-9)
-    key = np.round(v / (scale * 1e-7)).astype(np.int64)
-    uniq, vid = np.unique(key, axis=0, return_inverse=True)
-    return vid.reshape(-1), len(uniq)
-
-
-def _fix_winding(v, f):
-    """(faces with consistent winding, outward where a part is closed; all parts closed?).
-
-    Vertices are merged by position for the analysis only (texture coordinates stay with
-    their corners). Faces sharing an edge (exactly two per edge) must run the edge in
-    opposite directions; a breadth-first walk flips the ones that do not. A closed part
-    whose signed volume is negative is turned inside out.
-    """
-    from collections import deque
-    f = np.asarray(f, np.int64)
-    m = len(f)
-    if m == 0:
-        return f, False
-    vid, _ = _merge_ids(v)
-    fm = vid[f]
-    a = fm.reshape(-1)
-    b = np.roll(fm, -1, axis=1).reshape(-1)            # directed edges a -> b per corner
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * (int(fm.max()) + 1) + hi
-    order = np.argsort(key, kind='stable')
-    ks = key[order]
-    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-    counts = np.diff(np.r_[starts, len(ks)])
-    degenerate = a == b
-    edge_face = np.repeat(np.arange(m), 3)
-    # neighbours across manifold edges (exactly two faces), with "same direction" flags
-    two = starts[counts == 2]
-    e1, e2 = order[two], order[two + 1]
-    keep = ~(degenerate[e1] | degenerate[e2])
-    e1, e2 = e1[keep], e2[keep]
-    f1, f2 = edge_face[e1], edge_face[e2]
-    same = a[e1] == a[e2]                              # same direction: winding disagrees
-    adj = [[] for _ in range(m)]
-    for x, y, sd in zip(f1.tolist(), f2.tolist(), same.tolist()):
-        if x != y:
-            adj[x].append((y, sd))
-            adj[y].append((x, sd))
-    open_edge = np.zeros(m, bool)
-    bad = starts[counts != 2]
-    for s0, c in zip(bad.tolist(), counts[counts != 2].tolist()):
-        open_edge[edge_face[order[s0:s0 + c]]] = True
-    flip = np.zeros(m, bool)
-    seen = np.zeros(m, bool)
-    tri = np.asarray(v, float)[f]
-    all_closed = True
-    for s0 in range(m):
-        if seen[s0]:
-            continue
-        comp = [s0]
-        seen[s0] = True
-        q = deque([s0])
-        while q:
-            x = q.popleft()
-            for y, sd in adj[x]:
-                if not seen[y]:
-                    seen[y] = True
-                    flip[y] = flip[x] ^ sd
-                    comp.append(y)
-                    q.append(y)
-        comp = np.array(comp)
-        if open_edge[comp].any():
-            all_closed = False
-            continue
-        t = tri[comp]
-        vol = np.einsum('ij,ij->i', t[:, 0], np.cross(t[:, 1], t[:, 2]))
-        vol = np.where(flip[comp], -vol, vol).sum()
-        if vol < 0:
-            flip[comp] = ~flip[comp]
-    out = f.copy()
-    out[flip] = out[flip][:, ::-1]
-    return out, all_closed
-
-
 def load_mesh(path, scale=(1.0, 1.0, 1.0), crease_deg=40.0):
-    """Read a mesh file into MeshData (see module doc). Raises MeshLoadError."""
-    if not path or not os.path.isfile(path):
-        raise MeshLoadError('mesh file %r not found' % path)
-    try:
-        import trimesh
-    except ImportError as e:  # pragma: no cover - trimesh is in tools/requirements.txt
-        raise MeshLoadError('trimesh is not installed: %s' % e)
-    try:
-        scene = trimesh.load(path, force='scene', process=False)
-    except Exception as e:  # noqa: BLE001 - loaders raise many kinds
-        raise MeshLoadError('cannot read mesh %s: %s' % (path, e))
-    unit, rot = 1.0, np.eye(3)
-    if path.lower().endswith('.dae'):
-        unit, rot = _collada_fix(path)
-    xf = rot * unit
-    xf = np.asarray(scale, float).reshape(3, 1) * xf   # scale after unit/up fix (model frame)
+    """Read a mesh file into MeshData (see module doc). Raises MeshLoadError.
+
+    The file is read by ``simvid.mesh.load`` (shared with physics: units, up axis, scale,
+    winding repair, cache); here only normals, texture coordinates and colours are added."""
+    lm = _mesh.load(path, scale)
     pos, nor, uvs, parts = [], [], [], []
     first = 0
     double = False
-    geoms = []
-    try:
-        for node in scene.graph.nodes_geometry:
-            T, gname = scene.graph[node]
-            g = scene.geometry.get(gname)
-            if g is not None and hasattr(g, 'faces') and len(g.faces):
-                geoms.append((T, g))
-    except Exception as e:  # noqa: BLE001
-        raise MeshLoadError('cannot read mesh %s: %s' % (path, e))
-    if not geoms:
-        raise MeshLoadError('mesh %s has no triangles' % path)
-    for T, g in geoms:
-        g = g.copy()
-        try:
-            g.apply_transform(T)
-        except Exception:  # noqa: BLE001
-            pass
-        v = np.asarray(g.vertices, float).dot(xf.T)
-        f = np.asarray(g.faces, np.int64)
-        if np.linalg.det(xf) < 0:          # mirrored by a negative scale: keep winding outward
-            f = f[:, ::-1]
-        good = np.all(np.isfinite(v), axis=1)
-        if not good.all():
-            f = f[np.all(good[f], axis=1)]
-        f, watertight = _fix_winding(v, f)
-        double = double or not watertight
+    for part in lm.parts:
+        v, f = part.vertices, part.faces
+        double = double or not part.closed
         corners = f.reshape(-1)
         pos.append(v[corners])
         nor.append(crease_normals(v, f, crease_deg))
         uv = None
-        visual = getattr(g, 'visual', None)
         img = None
-        if visual is not None and getattr(visual, 'kind', None) == 'texture':
-            raw_uv = getattr(visual, 'uv', None)
-            if raw_uv is not None and len(raw_uv) == len(v):
-                uv = np.asarray(raw_uv, float)[corners].copy()
-                uv[:, 1] = 1.0 - uv[:, 1]      # file uv: v=0 at the bottom; ours: t=0 at top
-                img = _image_of(visual)
+        visual = part.visual
+        if part.uv is not None:
+            uv = part.uv[corners].copy()
+            uv[:, 1] = 1.0 - uv[:, 1]          # file uv: v=0 at the bottom; ours: t=0 at top
+            img = _image_of(visual)
         uvs.append(uv if uv is not None else np.zeros((len(corners), 2)))
         parts.append((first, len(corners), _color_of(visual) if visual is not None else None,
                       img))

@@ -4,6 +4,8 @@ Services (gazebo_msgs-compatible types from this package, same md5sums):
   /gazebo/get_model_state  /gazebo/set_model_state  /gazebo/spawn_urdf_model
   /gazebo/spawn_sdf_model  /gazebo/delete_model     /gazebo/pause_physics
   /gazebo/unpause_physics  /gazebo/reset_world      /gazebo/reset_simulation
+  /gazebo/step_world (mobile_device_sim/StepWorld: run until a sim time, then pause; the
+  testing instance's lockstep)
 Topics: /clock, /gazebo/model_states, /gazebo/set_model_state (subscriber), /tf, /tf_static.
 
 Every service answers ``success: false`` with a ``status_message`` naming the bad input
@@ -24,7 +26,8 @@ from tf2_msgs.msg import TFMessage
 from mobile_device_sim.msg import ModelState, ModelStates
 from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelState,
                                    GetModelStateResponse, SetModelState, SetModelStateResponse,
-                                   SpawnModel, SpawnModelResponse)
+                                   SpawnModel, SpawnModelResponse, StepWorld,
+                                   StepWorldResponse)
 
 from .model import ModelError
 from .sdf import parse_sdf_model
@@ -71,6 +74,8 @@ class GazeboRosApi(object):
         self.world = world
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
+        self.step_until = None                   # step_world: pause at this sim time
+        self.step_done = threading.Event()
         self._get_seq = 0
         self._last_tf_stamp = None
         self._static_tf = {}
@@ -96,6 +101,7 @@ class GazeboRosApi(object):
             rospy.Service('/gazebo/unpause_physics', Empty, self.unpause),
             rospy.Service('/gazebo/reset_world', Empty, self.reset_world),
             rospy.Service('/gazebo/reset_simulation', Empty, self.reset_simulation),
+            rospy.Service('/gazebo/step_world', StepWorld, self.step_world),
         ]
         self.set_sub = rospy.Subscriber('/gazebo/set_model_state', ModelState,
                                         self._set_state_topic, queue_size=100)
@@ -213,6 +219,37 @@ class GazeboRosApi(object):
         self.reset_anchor.set()
         return EmptyResponse()
 
+    def step_world(self, req):
+        """Run until sim time req.until (the first step at or after it), then pause."""
+        if self.step_until is not None:
+            return StepWorldResponse(False, 'StepWorld: another step_world call is running',
+                                     self.world.sim_time)
+        until = float(req.until)
+        if not math.isfinite(until):
+            return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
+                                     % until, self.world.sim_time)
+        self.step_done.clear()
+        self.step_until = until
+        self.paused = False
+        self.reset_anchor.set()
+        while not self.step_done.wait(0.1):
+            if rospy.is_shutdown():
+                break
+        self.step_until = None
+        return StepWorldResponse(True, 'StepWorld: paused at %.6f' % self.world.sim_time,
+                                 self.world.sim_time)
+
+    def _step_reached(self):
+        """Run-loop side of step_world: pause once sim time reached the target."""
+        until = self.step_until
+        if until is not None and not self.step_done.is_set() and \
+                self.world.sim_time + 0.5 * self.world.step_size >= until:
+            self.paused = True
+            self.publish()
+            self.step_done.set()
+            return True
+        return False
+
     def reset_world(self, _req):
         self.world.reset(time=False)
         self.reset_anchor.set()
@@ -285,6 +322,8 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
         if api.reset_anchor.is_set():
             api.reset_anchor.clear()
             wall0, sim0 = now, world.sim_time
+        if api.step_until is not None and api._step_reached():
+            continue
         if api.paused:
             if now >= next_pub:
                 api.publish()
@@ -292,14 +331,16 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
             time.sleep(0.01)
             wall0, sim0 = mono(), world.sim_time
             continue
+        stop = api.step_until
+        stop = math.inf if stop is None else stop - 0.5 * world.step_size
         with world.lock:
             end = now + batch_seconds
             if rtf > 0:
-                target_sim = sim0 + (end - wall0) * rtf
+                target_sim = min(sim0 + (end - wall0) * rtf, stop)
                 while world.sim_time < target_sim and mono() < end:
                     world.step()
             else:
-                while mono() < end:
+                while world.sim_time < stop and mono() < end:
                     world.step()
         now = mono()
         if now >= next_pub:

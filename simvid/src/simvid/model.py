@@ -111,10 +111,11 @@ class Visual(object):
 
 
 class Collision(object):
-    def __init__(self, geometry, origin=None, name=''):
+    def __init__(self, geometry, origin=None, name='', material=None):
         self.geometry = geometry
         self.origin = origin or Pose()
         self.name = name
+        self.material = material      # radio material name (simvid.raycast), or None
 
 
 class Inertial(object):

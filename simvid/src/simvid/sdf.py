@@ -145,7 +145,8 @@ def _link(lel, model, what):
                       _material(v.find('material'), lwhat + ' visual'), name=v.get('name', ''))
                for v in lel.findall('visual')]
     collisions = [Collision(_geometry(c.find('geometry'), lwhat + ' collision'),
-                            _pose(c, lwhat + ' collision'), name=c.get('name', ''))
+                            _pose(c, lwhat + ' collision'), name=c.get('name', ''),
+                            material=(_child_text(c, 'material') or '').strip() or None)
                   for c in lel.findall('collision')]
     link = Link(name, inertial, visuals, collisions,
                 gravity=_bool(_child_text(lel, 'gravity'), True))

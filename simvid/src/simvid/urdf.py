@@ -191,7 +191,10 @@ def parse_urdf(text, name=None, base_dir=None, robot_namespace=''):
             cwhat = '%s collision %d' % (what, i)
             collisions.append(Collision(_geometry(cel.find('geometry'), cwhat),
                                         parse_pose_attrs(cel.find('origin'), cwhat),
-                                        name=cel.get('name', '')))
+                                        name=cel.get('name', ''),
+                                        material=(cel.find('material').get('name')
+                                                  if cel.find('material') is not None
+                                                  else None)))
         model.links[lname] = Link(lname, inertial, visuals, collisions)
 
     for jel in root.findall('joint'):

@@ -208,6 +208,16 @@ class World(object):
             self._renderer.set_link_poses(name, self.link_poses(name))
 
     # -- state -------------------------------------------------------------------------------
+    def raycast(self, origin, direction, max_dist, ignore=()):
+        """First collision surface along a ray, or None (simvid.raycast)."""
+        from .raycast import raycast
+        return raycast(self, origin, direction, max_dist, ignore)
+
+    def segment_intervals(self, a, b, ignore=()):
+        """Parts of the segment a->b inside solid shapes (simvid.raycast)."""
+        from .raycast import segment_intervals
+        return segment_intervals(self, a, b, ignore)
+
     def link_poses(self, model_name):
         if model_name in self._static_poses:
             return self._static_poses[model_name]

@@ -81,7 +81,7 @@ def test_examples_exist():
      ['expected exactly one of eventually, always, never']),
     # tol without near
     (('rate: {near: 100, tol: 2}', 'rate: {gt: 100, tol: 2}'), 20,
-     ['tol goes with near or equals']),
+     ['tol goes with near, equals or colour']),
     # an event that is referenced but not defined
     (('after: warm, delay', 'after: wram, delay'), 13, ["expected the id of a timeline event",
                                                         "'wram'"]),

@@ -416,8 +416,10 @@ def _validate_predicate(v, pred, where, line, skip=()):
     if not keys:
         v.err(_line(pred, default=line), where, 'expected a predicate (%s)' %
               ', '.join(sorted(set(PREDICATE_KEYS) | set(IMAGE_KEYS))))
-    if 'tol' in pred and 'near' not in pred and 'equals' not in pred:
-        v.err(_line(pred, 'tol', line), where + '.tol', 'tol goes with near or equals')
+    if 'tol' in pred and not any(k in pred for k in ('near', 'equals', 'not_equals',
+                                                      'colour', 'color')):
+        v.err(_line(pred, 'tol', line), where + '.tol', 'tol goes with near, equals or '
+              'colour')
     if 'between' in pred and (not isinstance(pred['between'], list)
                               or len(pred['between']) != 2):
         v.err(_line(pred, 'between', line), where + '.between', 'expected [low, high]')

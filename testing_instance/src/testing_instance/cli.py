@@ -1,0 +1,137 @@
+"""Command line of run_scenario / replay_scenario (see the README of testing_instance)."""
+import argparse
+import glob
+import os
+import subprocess
+import sys
+import time
+
+from .runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, run_file
+
+__all__ = ['main', 'replay_main', 'farm']
+
+
+def _parser(prog):
+    p = argparse.ArgumentParser(
+        prog=prog, description='Run scenario files (YAML) against the simulated phone in '
+        'sim time and print a verdict per expectation. Exit 0: all passed, 1: a failure, '
+        '2: an error (the scenario could not run).')
+    p.add_argument('files', nargs='+', metavar='FILE|DIR',
+                   help='scenario file(s); with --jobs also folders of *.yaml')
+    p.add_argument('--seed', type=int, help='override the scenario\'s seed')
+    p.add_argument('--record', metavar='BAG', help='write a rosbag of the run')
+    p.add_argument('--junit', metavar='XML', help='write JUnit XML (with --jobs: a folder)')
+    p.add_argument('--real-time-factor', type=float, dest='rtf', metavar='R',
+                   help='0 = as fast as possible (override the scenario\'s)')
+    p.add_argument('--attach', action='store_true',
+                   help='use the running world at ROS_MASTER_URI (rostest)')
+    p.add_argument('--replay', metavar='BAG', help='play a recording as the clock source, '
+                   'no world; the apps and expectations run again')
+    p.add_argument('--jobs', type=int, default=0, metavar='N',
+                   help='run the scenarios N at a time, each with its own master port')
+    p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
+                   '(0-based; a CI matrix or several machines)')
+    p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
+    p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
+    return p
+
+
+def _expand(items):
+    files = []
+    for it in items:
+        if os.path.isdir(it):
+            files += sorted(glob.glob(os.path.join(it, '*.yaml')))
+        else:
+            files.append(it)
+    return files
+
+
+def _shard(files, spec):
+    try:
+        i, n = (int(x) for x in spec.split('/'))
+        if not 0 <= i < n:
+            raise ValueError
+    except ValueError:
+        raise SystemExit('--shard must be I/N with 0 <= I < N, got %r' % spec)
+    return [f for k, f in enumerate(sorted(files)) if k % n == i]
+
+
+def main(argv=None, prog='run_scenario'):
+    import rospy
+    argv = rospy.myargv(sys.argv if argv is None else argv)[1:]
+    a = _parser(prog).parse_args(argv)
+    if a.gtest_output and a.gtest_output.startswith('xml:') and not a.junit:
+        a.junit = a.gtest_output[4:]
+    files = _expand(a.files)
+    if a.shard:
+        files = _shard(files, a.shard)
+    if not files:
+        print('ERROR no scenario files in %s' % ' '.join(a.files))
+        return EXIT_ERROR
+    if a.jobs or len(files) > 1:
+        return farm(files, max(1, a.jobs), a)
+    res = run_file(files[0], seed=a.seed, record=a.record, junit=a.junit,
+                   real_time_factor=a.rtf, attach=a.attach, replay=a.replay)
+    return res.exit_code
+
+
+def replay_main(argv=None):
+    argv = list(sys.argv if argv is None else argv)
+    a = [x for x in argv[1:]]
+    if len(a) >= 2 and not a[0].startswith('-') and a[1].endswith('.bag'):
+        return main([argv[0], a[0], '--replay', a[1]] + a[2:], prog='replay_scenario')
+    print('usage: replay_scenario FILE BAG [--junit XML] [--real-time-factor R]')
+    return EXIT_ERROR
+
+
+def farm(files, jobs, a, out=print):
+    """Run every file in its own run_scenario process (own master port), ``jobs`` at a time;
+    print a summary table. Exit: the worst of the runs."""
+    node = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__)))), 'nodes', 'run_scenario')
+    pending = list(files)
+    running = []
+    results = []
+    wall0 = time.monotonic()
+    while pending or running:
+        while pending and len(running) < jobs:
+            f = pending.pop(0)
+            cmd = [sys.executable, node, f]
+            if a.seed is not None:
+                cmd += ['--seed', str(a.seed)]
+            if a.rtf is not None:
+                cmd += ['--real-time-factor', str(a.rtf)]
+            name = os.path.splitext(os.path.basename(f))[0]
+            if a.junit:
+                os.makedirs(a.junit, exist_ok=True)
+                cmd += ['--junit', os.path.join(a.junit, name + '.xml')]
+            if a.record:
+                os.makedirs(a.record, exist_ok=True)
+                cmd += ['--record', os.path.join(a.record, name + '.bag')]
+            env = dict(os.environ)
+            env.pop('ROS_MASTER_URI', None)    # each job starts its own master (free port)
+            p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                 env=env, text=True)
+            running.append((f, p, time.monotonic()))
+        for item in list(running):
+            f, p, t0 = item
+            if p.poll() is not None:
+                text = p.stdout.read()
+                running.remove(item)
+                results.append((f, p.returncode, time.monotonic() - t0, text))
+                for ln in text.splitlines():
+                    out('[%s] %s' % (os.path.basename(f), ln))
+        time.sleep(0.1)
+    status = {EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}
+    out('')
+    out('%-40s %-6s %8s %s' % ('scenario', 'result', 'wall s', 'expectations'))
+    worst = EXIT_PASS
+    for f, rc, wall, text in sorted(results):
+        n_pass = sum(1 for ln in text.splitlines() if ln.startswith('PASS '))
+        n_all = sum(1 for ln in text.splitlines() if ln.split(' ', 1)[0] in
+                    ('PASS', 'FAIL', 'ERROR'))
+        out('%-40s %-6s %8.1f %d/%d passed' % (os.path.basename(f), status.get(rc, 'ERROR'),
+                                                 wall, n_pass, n_all))
+        worst = max(worst, rc if rc in (0, 1) else EXIT_ERROR)
+    out('%d scenarios, %d jobs, %.1f s wall' % (len(results), jobs, time.monotonic() - wall0))
+    return worst

@@ -1,0 +1,916 @@
+"""The scenario runner: world start, lockstep timeline in sim time, verdicts, JUnit, rosbag.
+
+    rosrun mobile_device_sim run_scenario FILE [--seed N] [--record BAG] [--junit XML]
+        [--real-time-factor R] [--attach] [--replay BAG] [--jobs N DIR...]
+
+Lockstep: the world runs paused; the runner advances it with /gazebo/step_world to the next
+instant that matters (an action's time, a slice boundary while a `when` condition waits,
+at most 1 s), waits until the messages of that slice have arrived (the world is paused,
+so nothing new is produced meanwhile), feeds them to the expectations in the order of their
+stamps, evaluates conditions, and applies due actions while the world is still paused. So
+actions land at exact sim times and the verdicts and the recorded sensor messages do not
+depend on the real-time factor or the machine's speed. The wall clock is only the outer
+watchdog (``timeout``).
+
+Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scenario file is
+invalid, the world could not start or died, an action failed, a topic never appeared, a
+field does not exist, the watchdog fired).
+"""
+import heapq
+import json
+import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import xml.etree.ElementTree as ET
+
+from . import motion
+from .expect import Expectation, FieldError, Predicate, Verdict, get_field
+from .scenario import ScenarioError, load
+
+EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
+PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                         '..', '..', '..'))
+LAUNCHES = {
+    'office': os.path.join(PKG_ROOT, 'simvid', 'launch', 'office.launch'),
+}
+MAX_SLICE = 1.0          # s of sim time between checks when nothing else is due
+EVENTS_TOPIC = '/scenario/events'
+META_TOPIC = '/scenario/meta'
+
+__all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
+           'EXIT_ERROR']
+
+
+class RunError(Exception):
+    """The scenario could not run (the verdict is ERROR, not FAIL)."""
+
+    def __init__(self, text, log_lines=()):
+        Exception.__init__(self, text)
+        self.log_lines = list(log_lines)
+
+
+class Result(object):
+    def __init__(self, name, verdicts, error=None, log_lines=(), sim_time=0.0, wall=0.0):
+        self.name = name
+        self.verdicts = verdicts
+        self.error = error
+        self.log_lines = list(log_lines)
+        self.sim_time = sim_time
+        self.wall = wall
+
+    @property
+    def status(self):
+        if self.error or any(v.error for v in self.verdicts):
+            return 'ERROR'
+        return 'PASS' if all(v.passed for v in self.verdicts) else 'FAIL'
+
+    @property
+    def exit_code(self):
+        return {'PASS': EXIT_PASS, 'FAIL': EXIT_FAIL}.get(self.status, EXIT_ERROR)
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(('localhost', 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def write_junit(result, path, classname='scenario'):
+    suite = ET.Element('testsuite', name=result.name, tests=str(max(1, len(result.verdicts))),
+                       failures=str(sum(1 for v in result.verdicts
+                                        if not v.passed and not v.error)),
+                       errors=str(sum(1 for v in result.verdicts if v.error)
+                                  + (1 if result.error else 0)),
+                       time='%.3f' % result.wall)
+    ET.SubElement(suite, 'properties')
+    for v in result.verdicts:
+        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
+                           name=v.name, time='0')
+        if v.error:
+            ET.SubElement(tc, 'error', message=v.line()).text = v.line()
+        elif not v.passed:
+            ET.SubElement(tc, 'failure', message=v.line()).text = v.line()
+        ET.SubElement(tc, 'system-out').text = v.line()
+    if result.error:
+        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
+                           name='run')
+        text = result.error + ('\n' + '\n'.join(result.log_lines) if result.log_lines else '')
+        ET.SubElement(tc, 'error', message=result.error).text = text
+    d = os.path.dirname(os.path.abspath(path))
+    os.makedirs(d, exist_ok=True)
+    ET.ElementTree(suite).write(path, encoding='utf-8', xml_declaration=True)
+
+
+def _tail(path, n=25):
+    try:
+        with open(path, errors='replace') as f:
+            return [ln.rstrip('\n') for ln in f.readlines()[-n:]]
+    except OSError:
+        return []
+
+
+class _Proc(object):
+    """A child process in its own process group, output to a log file."""
+
+    def __init__(self, cmd, env, log_path, cwd=None):
+        self.cmd = cmd
+        self.log_path = log_path
+        self.log = open(log_path, 'w')
+        self.p = subprocess.Popen(cmd, env=env, stdout=self.log, stderr=subprocess.STDOUT,
+                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd)
+
+    def alive(self):
+        return self.p.poll() is None
+
+    def stop(self, grace=10.0):
+        if self.p.poll() is None:
+            try:
+                os.killpg(self.p.pid, signal.SIGINT)
+            except OSError:
+                pass
+            try:
+                self.p.wait(grace)
+            except subprocess.TimeoutExpired:
+                try:
+                    os.killpg(self.p.pid, signal.SIGKILL)
+                except OSError:
+                    pass
+                self.p.wait(5)
+        self.log.close()
+
+
+class Runner(object):
+    def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
+                 attach=False, replay=None, out=None, run_dir=None, port=None):
+        self.sc = scenario
+        self.seed = scenario.seed if seed is None else int(seed)
+        self.rtf = scenario.real_time_factor if real_time_factor is None \
+            else float(real_time_factor)
+        self.record_path = record
+        self.junit = junit
+        self.attach = attach or bool(scenario.world.get('attach'))
+        self.replay = replay
+        self.out = out or (lambda s: (sys.stdout.write(s + '\n'), sys.stdout.flush()))
+        self.own_dir = run_dir is None
+        self.run_dir = run_dir or tempfile.mkdtemp(prefix='scenario_')
+        self.port = port
+        self.procs = []
+        self.world_proc = None
+        self.lock = threading.Lock()
+        self.buffer = []
+        self.last_msg_wall = time.monotonic()
+        self.seq = 0
+        self.subs = {}
+        self.topic_types = {}
+        self.bag = None
+        self.bag_lock = threading.Lock()
+        self.event_times = {}
+        self.timed_out = False
+        self.env_values = {}
+        self.pubs = {}
+        self.cond_hits = {}
+        self.t = 0.0
+
+    # -- output ----------------------------------------------------------------------------
+    def say(self, text):
+        self.out(text)
+
+    def world_log(self):
+        if self.world_proc is not None:
+            return _tail(self.world_proc.log_path)
+        return []
+
+    # -- processes -------------------------------------------------------------------------
+    def _env(self):
+        env = dict(os.environ)
+        if not self.attach:
+            env['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
+        env.setdefault('ROS_HOSTNAME', 'localhost')
+        env['ROS_LOG_DIR'] = os.path.join(self.run_dir, 'log')
+        env['PYTHONUNBUFFERED'] = '1'
+        return env
+
+    def _launch_world(self):
+        w = self.sc.world
+        launch = w.get('launch', 'office')
+        path = LAUNCHES.get(launch) or self.sc.resolve(launch)
+        if not os.path.isfile(path):
+            raise RunError('world.launch: no launch file %s (expected office or a path to a '
+                           '.launch file)' % path)
+        args = ['paused:=true', 'seed:=%d' % self.seed,
+                'real_time_factor:=%g' % self.rtf, 'physics:=%s' % w.get('physics', 'ode')]
+        if launch == 'office':
+            args.append('flycam:=false')
+            ph = self.sc.phones[0]
+            if 'position' in ph:
+                args += ['phone_x:=%r' % ph['position'][0], 'phone_y:=%r' % ph['position'][1],
+                         'phone_z:=%r' % ph['position'][2]]
+            if 'rpy' in ph:
+                args.append('phone_yaw:=%r' % ph['rpy'][2])
+        if 'max_step_size' in w:
+            args.append('max_step_size:=%r' % w['max_step_size'])
+        for k, v in (w.get('args') or {}).items():
+            args.append('%s:=%s' % (k, str(v).lower() if isinstance(v, bool) else v))
+        cmd = ['roslaunch', '--wait' if False else '-p', str(self.port), path] + args
+        self.world_proc = _Proc(cmd, self._env(), os.path.join(self.run_dir, 'world.log'))
+        self.procs.append(self.world_proc)
+
+    def _start_roscore(self):
+        self.world_proc = _Proc(['roscore', '-p', str(self.port)], self._env(),
+                                os.path.join(self.run_dir, 'roscore.log'))
+        self.procs.append(self.world_proc)
+
+    def _wait_master(self, deadline):
+        import rosgraph
+        m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
+        while time.monotonic() < deadline:
+            if self.world_proc is not None and not self.world_proc.alive():
+                raise RunError('the world exited while starting (code %s)'
+                               % self.world_proc.p.returncode, self.world_log())
+            try:
+                m.getPid()
+                return
+            except Exception:  # noqa: BLE001 - not up yet
+                time.sleep(0.2)
+        raise RunError('no ROS master at %s after %g s' % (self._env()['ROS_MASTER_URI'],
+                                                           self.sc.timeout), self.world_log())
+
+    def _start_apps(self):
+        import rosgraph
+        names = []
+        for i, app in enumerate(self.sc.apps):
+            name = app.get('name', 'app%d' % i)
+            params = ['_%s:=%s' % (k, json.dumps(v) if not isinstance(v, str) else v)
+                      for k, v in (app.get('params') or {}).items()]
+            if 'script' in app:
+                script = self.sc.resolve(app['script'])
+                if not os.path.isfile(script):
+                    raise RunError('apps[%d].script: no file %s' % (i, script))
+                cmd = [sys.executable, script]
+            else:
+                pkg, _, typ = app['node'].partition('/')
+                cmd = ['rosrun', pkg, typ]
+            cmd += [str(a) for a in app.get('args') or []] + params + ['__name:=%s' % name]
+            p = _Proc(cmd, self._env(), os.path.join(self.run_dir, '%s.log' % name),
+                      cwd=self.sc.dir)
+            self.procs.append(p)
+            names.append(('/' + name, p))
+        # wait until every app is registered with the master (its topics are known)
+        m = rosgraph.Master('/scenario_runner')
+        deadline = time.monotonic() + min(self.sc.timeout, 60.0)
+        while names and time.monotonic() < deadline:
+            pubs, subs, _srv = m.getSystemState()
+            nodes = {n for _t, ns in pubs + subs for n in ns}
+            for n, p in list(names):
+                if not p.alive():
+                    raise RunError('app %s exited at start (code %s)' % (n, p.p.returncode),
+                                   _tail(p.log_path))
+                if n in nodes:
+                    names.remove((n, p))
+            time.sleep(0.1)
+        if names:
+            raise RunError('app(s) %s did not register with the master within 60 s'
+                           % ', '.join(n for n, _p in names),
+                           sum((_tail(p.log_path) for _n, p in names), []))
+
+    # -- ROS side --------------------------------------------------------------------------
+    def _init_ros(self):
+        os.environ.update({k: v for k, v in self._env().items()
+                           if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
+        import rospy
+        rospy.init_node('scenario_runner', disable_signals=True)
+        self.rospy = rospy
+
+    def _services(self):
+        import rospy
+        from mobile_device_sim.srv import (DeleteModel, GetModelState, InjectTouch,
+                                           PressButton, SetEnvironment, SetModelState,
+                                           SetSensorFault, SpawnModel, StepWorld)
+        self.srv_types = dict(step=StepWorld, get=GetModelState, set=SetModelState,
+                              env=SetEnvironment, fault=SetSensorFault, spawn_urdf=SpawnModel,
+                              spawn_sdf=SpawnModel, delete=DeleteModel, touch=InjectTouch,
+                              button=PressButton)
+        self._proxies = {}
+        self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
+        self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
+        rospy.wait_for_service('/gazebo/step_world', timeout=self.sc.timeout)
+
+    def proxy(self, name, typ):
+        import rospy
+        if name not in self._proxies:
+            self._proxies[name] = rospy.ServiceProxy(name, typ)
+        return self._proxies[name]
+
+    def _wait_phones(self, deadline):
+        for ph in self.sc.phones[:1] if not self.attach else self.sc.phones:
+            while True:
+                self._check_world()
+                try:
+                    if self.get_state(ph['ns'], '').success:
+                        break
+                except Exception:  # noqa: BLE001 - service not yet there
+                    pass
+                if time.monotonic() > deadline:
+                    raise RunError('phone model %r did not appear' % ph['ns'], self.world_log())
+                time.sleep(0.2)
+
+    def _spawn_more_phones(self):
+        for ph in self.sc.phones[1:]:
+            xacro = os.path.join(PKG_ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+            self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
+                        ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))
+
+    def _check_world(self):
+        if self.timed_out:
+            raise RunError('watchdog: the scenario did not finish within %g s of wall time '
+                           '(timeout)' % self.sc.timeout, self.world_log())
+        if self.world_proc is not None and not self.world_proc.alive():
+            raise RunError('the world died at sim time %.3f s (exit code %s)'
+                           % (self.t, self.world_proc.p.returncode), self.world_log())
+
+    def _topic_types(self):
+        import rosgraph
+        return dict(rosgraph.Master('/scenario_runner').getTopicTypes())
+
+    def _msg_class(self, typ):
+        import roslib.message
+        return roslib.message.get_message_class(typ)
+
+    def _wanted_topics(self):
+        want = {}
+        for e in self.expectations:
+            want.setdefault(e.topic, 'expect')
+        for ev in self.sc.timeline:
+            w = ev.get('when')
+            if isinstance(w, dict) and 'topic' in w:
+                want.setdefault(w['topic'], 'condition')
+        if self.bag is not None:
+            types = self.topic_types
+            prefixes = ['/%s/' % ph['ns'].strip('/') for ph in self.sc.phones]
+            for t, typ in types.items():
+                if any(t.startswith(p) for p in prefixes) and typ != 'sensor_msgs/Image' \
+                        and typ != 'sensor_msgs/CompressedImage':
+                    want.setdefault(t, 'record')
+            want.setdefault('/gazebo/environment', 'record')
+            for t in self.sc.record:
+                want.setdefault(t, 'record')
+        return want
+
+    def _subscribe_all(self, wait_connections=True):
+        import rospy
+        self.topic_types = self._topic_types()
+        new = []
+        for topic, why in self._wanted_topics().items():
+            if topic in self.subs or topic == EVENTS_TOPIC:
+                continue
+            typ = self.topic_types.get(topic)
+            if typ is None:
+                continue
+            cls = self._msg_class(typ)
+            if cls is None:
+                continue
+            self._check_fields(topic, cls)
+            self.subs[topic] = rospy.Subscriber(topic, cls, self._cb, callback_args=topic,
+                                                queue_size=1000, buff_size=1 << 24,
+                                                tcp_nodelay=True)
+            new.append(topic)
+        if wait_connections and new:
+            deadline = time.monotonic() + 10.0
+            while time.monotonic() < deadline and any(
+                    self.subs[t].get_num_connections() == 0 for t in new):
+                time.sleep(0.02)
+        return new
+
+    def _check_fields(self, topic, cls):
+        proto = cls()
+        for e in self.expectations:
+            if e.topic == topic and e.field and e.verdict is None:
+                try:
+                    _probe_field(proto, e.field)
+                except FieldError as err:
+                    e.error('field %r does not exist on %s: %s' % (e.field, cls._type, err))
+
+    def _stamp_of(self, msg):
+        h = getattr(msg, 'header', None)
+        st = getattr(h, 'stamp', None)
+        if st is not None and (st.secs or st.nsecs):
+            return st.to_sec()
+        return self.rospy.get_rostime().to_sec()
+
+    def _cb(self, msg, topic):
+        t = self._stamp_of(msg)
+        with self.lock:
+            self.seq += 1
+            self.buffer.append((t, self.seq, topic, msg))
+            self.last_msg_wall = time.monotonic()
+        if self.bag is not None:
+            self._bag_write(topic, msg, t)
+
+    def _bag_write(self, topic, msg, t):
+        with self.bag_lock:
+            if self.bag is not None:
+                self.bag.write(topic, msg, self.rospy.Time.from_sec(max(t, 1e-9)))
+
+    def _settle(self, quiet=0.03, longest=3.0):
+        """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
+        what is still on its way belongs to the slice just run)."""
+        t0 = time.monotonic()
+        while True:
+            now = time.monotonic()
+            with self.lock:
+                last = self.last_msg_wall
+            if now - max(last, t0) >= quiet or now - t0 > longest:
+                return
+            time.sleep(0.005)
+
+    def _drain(self):
+        with self.lock:
+            batch, self.buffer = self.buffer, []
+        batch.sort(key=lambda x: (x[0], x[2], x[1]))
+        for t, _s, topic, msg in batch:
+            for e in self.by_topic.get(topic, ()):
+                e.feed(t, msg)
+            for ev in self.cond_by_topic.get(topic, ()):
+                self._cond_msg(ev, t, msg)
+            if topic == '/gazebo/environment':
+                self.env_values = {v.name: v.value for v in msg.values}
+
+    # -- events ----------------------------------------------------------------------------
+    def _record_event(self, t, text, **kw):
+        if self.bag is None:
+            return
+        from std_msgs.msg import String
+        self._bag_write(EVENTS_TOPIC, String(json.dumps(dict(kw, t=round(t, 6), text=text),
+                                                        sort_keys=True)), t)
+
+    def _push(self, t, fn, what):
+        self.seq_agenda += 1
+        heapq.heappush(self.agenda, (round(t, 9), self.seq_agenda, fn, what))
+
+    def _fire(self, ev, t):
+        """Event ev triggers at sim time t: schedule its action and what waits for it."""
+        if ev['id'] in self.event_times:
+            return
+        self.event_times[ev['id']] = t
+        self.say('  t=%.3f s: %s (%s)' % (t, ev['id'], ev['action']))
+        self._record_event(t, 'event', id=ev['id'], action=ev['action'])
+        self._do_action(ev, t)
+        for e in self.expectations:
+            if e.after == ev['id']:
+                e.start(t)
+        for other in self.sc.timeline:
+            if other.get('after') == ev['id']:
+                ot = t + float(other.get('delay', 0.0))
+                self._push(ot, lambda tt, o=other: self._fire(o, tt), other['id'])
+
+    def _cond_msg(self, ev, t, msg):
+        c = ev['when']
+        if ev['id'] in self.event_times or ev['id'] in self.cond_hits:
+            return
+        pred = Predicate({k: v for k, v in c.items() if k not in ('topic', 'field')})
+        try:
+            v = get_field(msg, c.get('field'))
+            if pred.is_image:
+                v = pred.image_facts(v)
+        except FieldError as err:
+            raise RunError('%s.when: %s' % (ev['id'], err))
+        if pred.test(v):
+            self.cond_hits[ev['id']] = t
+
+    def _check_conditions(self):
+        for ev in self.pending_conditions():
+            if ev['id'] in self.cond_hits:
+                self._fire(ev, self.t)
+                continue
+            reach = ev['when'].get('reach')
+            if reach:
+                res = self.get_state(reach['model'], '')
+                if not res.success:
+                    raise RunError('%s.when.reach: %s' % (ev['id'], res.status_message))
+                p = res.pose.position
+                d = math.sqrt(sum((a - b) ** 2 for a, b in zip(
+                    (p.x, p.y, p.z), reach['position'])))
+                if d <= float(reach.get('tolerance', 0.1)):
+                    self._fire(ev, self.t)
+
+    def pending_conditions(self):
+        return [ev for ev in self.sc.timeline if 'when' in ev
+                and ev['id'] not in self.event_times]
+
+    # -- actions ---------------------------------------------------------------------------
+    def _ns(self, ev):
+        return '/' + ev.get('ns', self.sc.phones[0]['ns']).strip('/')
+
+    def _call(self, ev, name, typ, *args):
+        try:
+            res = self.proxy(name, typ)(*args)
+        except Exception as e:  # noqa: BLE001 - service missing or the world died
+            self._check_world()
+            raise RunError('%s (%s): service %s failed: %s' % (ev['id'], ev['action'], name, e),
+                           self.world_log())
+        if hasattr(res, 'success') and not res.success:
+            raise RunError('%s (%s): %s' % (ev['id'], ev['action'], res.status_message))
+        return res
+
+    def _model_state(self, ev, model):
+        res = self._call(ev, '/gazebo/get_model_state', self.srv_types['get'], model, '')
+        p, q = res.pose.position, res.pose.orientation
+        return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
+
+    def _set_pose(self, ev, model, pos, quat, lin=(0, 0, 0), ang=(0, 0, 0), frame=''):
+        from mobile_device_sim.msg import ModelState
+        s = ModelState()
+        s.model_name = model
+        s.pose.position.x, s.pose.position.y, s.pose.position.z = (float(v) for v in pos)
+        (s.pose.orientation.x, s.pose.orientation.y, s.pose.orientation.z,
+         s.pose.orientation.w) = (float(v) for v in quat)
+        s.twist.linear.x, s.twist.linear.y, s.twist.linear.z = (float(v) for v in lin)
+        s.twist.angular.x, s.twist.angular.y, s.twist.angular.z = (float(v) for v in ang)
+        s.reference_frame = frame
+        self._call(ev, '/gazebo/set_model_state', self.srv_types['set'], s)
+
+    def _set_env(self, ev, values):
+        from mobile_device_sim.msg import EnvironmentValue
+        self._call(ev, '/gazebo/set_environment', self.srv_types['env'],
+                   [EnvironmentValue(name=k, value=float(v)) for k, v in sorted(values.items())])
+        self.env_values.update(values)
+
+    def _publisher(self, topic, cls, latch=True):
+        import rospy
+        key = (topic, cls._type)
+        if key not in self.pubs:
+            self.pubs[key] = rospy.Publisher(topic, cls, queue_size=100, latch=latch)
+        return self.pubs[key]
+
+    def _publish(self, topic, msg):
+        pub = self._publisher(topic, type(msg))
+        deadline = time.monotonic() + 5.0
+        while pub.get_num_connections() == 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        pub.publish(msg)
+
+    def _spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):
+        ev = ev or {'id': 'phones', 'action': 'spawn_model'}
+        from geometry_msgs.msg import Pose
+        if path.endswith('.xacro') or path.endswith('.urdf'):
+            cmd = ['xacro', path] + ['%s:=%s' % kv for kv in (args or {}).items()]
+            try:
+                xml = subprocess.run(cmd, check=True, capture_output=True, text=True,
+                                     timeout=60).stdout
+            except (subprocess.CalledProcessError, OSError, subprocess.TimeoutExpired) as e:
+                raise RunError('%s: xacro %s failed: %s' % (ev['id'], path,
+                                                            getattr(e, 'stderr', e)))
+            srv = '/gazebo/spawn_urdf_model'
+        else:
+            try:
+                xml = open(path).read()
+            except OSError as e:
+                raise RunError('%s: cannot read %s: %s' % (ev['id'], path, e.strerror))
+            srv = '/gazebo/spawn_sdf_model'
+        pose = Pose()
+        pose.position.x, pose.position.y, pose.position.z = pos
+        q = motion.quat_from_rpy(*rpy)
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
+        self._call(ev, srv, self.srv_types['spawn_urdf'], name, xml, namespace, pose, '')
+
+    def _do_action(self, ev, t0):
+        a = ev['action']
+        fn = getattr(self, '_act_' + a)
+        fn(ev, t0)
+
+    def _act_set_model_state(self, ev, t0):
+        pos, quat = self._model_state(ev, ev['model'])
+        if 'position' in ev:
+            pos = ev['position']
+        if 'rpy' in ev:
+            quat = motion.quat_from_rpy(*ev['rpy'])
+        self._set_pose(ev, ev['model'], pos, quat, frame=ev.get('reference_frame', ''))
+
+    def _act_move_model(self, ev, t0):
+        pos, quat = self._model_state(ev, ev['model'])
+        if 'rpy' in ev:
+            quat = motion.quat_from_rpy(*ev['rpy'])
+        pts = motion.path_points(pos, ev['waypoints'], ev.get('speed', 0.5),
+                                 ev.get('interval', 0.02))
+        for dt, p, v in pts:
+            self._push(t0 + dt, lambda tt, p=p, v=v: self._set_pose(ev, ev['model'], p, quat, v),
+                       ev['id'])
+
+    def _act_walk(self, ev, t0):
+        pos, quat = self._model_state(ev, ev['model'])
+        base = motion.quat_from_rpy(*ev.get('rpy', [0, 0, 0])) if 'rpy' in ev else quat
+        pts = motion.walk_points(pos, ev['waypoints'], ev.get('speed', 1.2),
+                                 ev.get('step_frequency', 1.8), ev.get('bounce', 0.02),
+                                 ev.get('interval', 0.02))
+        face = ev.get('heading', True)
+        last_yaw = [None]
+
+        def setp(tt, p, v, yaw):
+            q = base
+            if face:
+                if yaw is None:
+                    yaw = last_yaw[0]
+                last_yaw[0] = yaw
+                if yaw is not None:
+                    q = motion.quat_mul(motion.quat_from_rpy(0, 0, yaw), base)
+            self._set_pose(ev, ev['model'], p, q, v)
+        for dt, p, v, yaw in pts:
+            self._push(t0 + dt, lambda tt, p=p, v=v, y=yaw: setp(tt, p, v, y), ev['id'])
+
+    def _act_rotate(self, ev, t0):
+        pos, quat = self._model_state(ev, ev['model'])
+        for dt, q in motion.rotate_points(quat, ev['rpy'], ev.get('duration', 0.0),
+                                          ev.get('interval', 0.02)):
+            self._push(t0 + dt, lambda tt, q=q: self._set_pose(ev, ev['model'], pos, q),
+                       ev['id'])
+
+    def _act_set_environment(self, ev, t0):
+        start = {k: self.env_values.get(k, v) for k, v in ev['values'].items()}
+        for dt, vals in motion.ramp_points(start, ev['values'], ev.get('ramp', 0.0),
+                                           ev.get('interval', 0.1)):
+            if dt == 0:
+                self._set_env(ev, vals)
+            else:
+                self._push(t0 + dt, lambda tt, v=vals: self._set_env(ev, v), ev['id'])
+
+    def _act_playback(self, ev, t0):
+        for dt, v in motion.series_points(ev['series']):
+            if 'name' in ev:
+                fn = (lambda tt, v=v: self._set_env(ev, {ev['name']: v}))
+            else:
+                cls = self._msg_class(ev['type'])
+                if cls is None:
+                    raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
+
+                def fn(tt, v=v, cls=cls):
+                    m = cls()
+                    _set_field(m, ev['field'], v)
+                    if hasattr(m, 'header'):
+                        m.header.stamp = self.rospy.Time.from_sec(tt)
+                    self._publish(ev['topic'], m)
+            if dt <= 0:
+                fn(t0)
+            else:
+                self._push(t0 + dt, fn, ev['id'])
+
+    def _act_charger(self, ev, t0):
+        from std_msgs.msg import Bool
+        self._publish(self._ns(ev) + '/charger', Bool(ev['plugged']))
+
+    def _act_radio(self, ev, t0):
+        from std_msgs.msg import Bool
+        self._publish('%s/%s/enable' % (self._ns(ev), ev['radio']), Bool(ev['enabled']))
+
+    def _act_press_button(self, ev, t0):
+        self._call(ev, self._ns(ev) + '/press_button', self.srv_types['button'], ev['button'],
+                   ev.get('duration', 0.1))
+
+    def _act_touch(self, ev, t0):
+        self._call(ev, self._ns(ev) + '/inject_touch', self.srv_types['touch'], ev['x'],
+                   ev['y'], ev.get('duration', 0.1), ev.get('pressure', 0.5),
+                   ev.get('x_end', -1.0), ev.get('y_end', -1.0))
+
+    def _act_show_image(self, ev, t0):
+        from std_msgs.msg import String
+        path = self.sc.resolve(ev['file'])
+        self._publish(ev.get('topic', self._ns(ev) + '/load_image_file'), String(path))
+
+    def _act_spawn_model(self, ev, t0):
+        self._spawn(ev['name'], self.sc.resolve(ev['file']), ev.get('position', [0, 0, 0]),
+                    ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), ev.get('args'), ev)
+
+    def _act_delete_model(self, ev, t0):
+        self._call(ev, '/gazebo/delete_model', self.srv_types['delete'], ev['name'])
+
+    def _act_fault(self, ev, t0):
+        self._call(ev, '/gazebo/set_sensor_fault', self.srv_types['fault'],
+                   ev.get('model', self.sc.phones[0]['ns']), ev['sensor'], ev['fault'],
+                   float(ev.get('value', 0.0)))
+
+    def _act_publish(self, ev, t0):
+        cls = self._msg_class(ev['type'])
+        if cls is None:
+            raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
+        m = cls()
+        try:
+            from genpy.message import fill_message_args
+            fill_message_args(m, [dict(ev.get('msg') or {})])
+        except Exception as e:  # noqa: BLE001 - genpy raises several kinds
+            raise RunError('%s: cannot fill a %s from %r: %s' % (ev['id'], ev['type'],
+                                                                 ev.get('msg'), e))
+        self._publish(ev['topic'], m)
+
+    def _act_log(self, ev, t0):
+        self.say('  t=%.3f s: %s' % (t0, ev['text']))
+
+    # -- the run ---------------------------------------------------------------------------
+    def run(self):
+        wall0 = time.monotonic()
+        self.expectations = [Expectation(e, self.sc.duration) for e in self.sc.expect]
+        self.by_topic = {}
+        for e in self.expectations:
+            self.by_topic.setdefault(e.topic, []).append(e)
+        self.cond_by_topic = {}
+        for ev in self.sc.timeline:
+            w = ev.get('when')
+            if isinstance(w, dict) and 'topic' in w:
+                self.cond_by_topic.setdefault(w['topic'], []).append(ev)
+        self.agenda, self.seq_agenda = [], 0
+        error, log = None, []
+        watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
+        watchdog.daemon = True
+        watchdog.start()
+        try:
+            if self.replay:
+                from .replay import replay_run
+                replay_run(self)
+            else:
+                self._run_live()
+        except RunError as e:
+            error, log = str(e), e.log_lines
+        except KeyboardInterrupt:
+            error = 'interrupted'
+        finally:
+            watchdog.cancel()
+            self._shutdown()
+        if error is None:
+            verdicts = [e.finish(self.t) for e in self.expectations]
+        else:
+            verdicts = [e.verdict for e in self.expectations if e.verdict is not None]
+        result = Result(self.sc.name, verdicts, error, log, self.t, time.monotonic() - wall0)
+        self.report(result)
+        return result
+
+    def _on_timeout(self):
+        self.timed_out = True
+        if self.world_proc is not None:   # unblocks a step_world call
+            self.world_proc.stop(grace=5.0)
+
+    def _start_world(self):
+        deadline = time.monotonic() + min(self.sc.timeout, 120.0)
+        if not self.attach:
+            if self.port is None:
+                self.port = free_port()
+            self._launch_world()
+            self._wait_master(deadline)
+        self._init_ros()
+        self._services()
+        self._wait_phones(deadline)
+
+    def _run_live(self):
+        self._start_world()
+        self._spawn_more_phones()
+        if self.record_path:
+            self._open_bag()
+        self._start_apps()
+        self.t = self.step_srv(0.0).sim_time     # paused now (attach: wherever it was)
+        self.t0 = self.t
+        self._subscribe_all()
+        self._settle()
+        self._drain()
+        self._meta()
+        for ev in self.sc.timeline:
+            if 'at' in ev:
+                self._push(self.t0 + ev['at'], lambda tt, e=ev: self._fire(e, tt), ev['id'])
+        self._loop(self._step_to)
+
+    def _step_to(self, t_next):
+        try:
+            res = self.step_srv(t_next)
+        except Exception as e:  # noqa: BLE001 - the world died or the watchdog stopped it
+            self._check_world()
+            raise RunError('step_world failed at sim time %.3f s: %s' % (self.t, e),
+                           self.world_log())
+        return res.sim_time
+
+    def _loop(self, step_to):
+        end = self.t0 + self.sc.duration
+        eps = 1e-9
+        while True:
+            self._check_world()
+            while self.agenda and self.agenda[0][0] <= self.t + 5e-4:
+                _t, _s, fn, _what = heapq.heappop(self.agenda)
+                fn(self.t)
+            if self.t >= end - 5e-4:
+                break
+            nxt = min(end, self.t + MAX_SLICE)
+            if self.agenda:
+                nxt = min(nxt, self.agenda[0][0])
+            if self.pending_conditions():
+                nxt = min(nxt, self.t + self.sc.slice)
+            if nxt <= self.t + eps:
+                nxt = self.t + 1e-3
+            self.t = step_to(nxt)
+            self._settle()
+            self._subscribe_all()      # topics that appeared late (apps, spawned models)
+            self._drain()
+            self._check_conditions()
+        self._settle()
+        self._drain()
+        # topics an expectation waits for that never appeared
+        for e in self.expectations:
+            if e.topic not in self.subs and e.verdict is None:
+                known = sorted(t for t in self.topic_types if t.startswith(
+                    '/' + e.topic.strip('/').split('/')[0] + '/'))
+                e.error('topic %s never appeared%s' % (
+                    e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
+
+    def _open_bag(self):
+        import rosbag
+        d = os.path.dirname(os.path.abspath(self.record_path))
+        os.makedirs(d, exist_ok=True)
+        self.bag = rosbag.Bag(self.record_path, 'w')
+
+    def _meta(self):
+        if self.bag is None:
+            return
+        import rosgraph
+        from std_msgs.msg import String
+        pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
+        inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes)
+        inputs.append('/gazebo/environment') if '/gazebo/environment' not in inputs else None
+        meta = dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
+                    real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
+                    duration=self.sc.duration,
+                    types={t: self.topic_types.get(t) for t in self.subs})
+        self._bag_write(META_TOPIC, String(json.dumps(meta, sort_keys=True)), self.t)
+
+    def _shutdown(self):
+        for s in self.subs.values():
+            s.unregister()
+        with self.bag_lock:
+            if self.bag is not None:
+                self.bag.close()
+                self.bag = None
+        for p in reversed(self.procs):
+            p.stop()
+        if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):
+            shutil.rmtree(self.run_dir, ignore_errors=True)
+
+    def report(self, result):
+        self.say('scenario %s (seed %d, real_time_factor %g): %s at sim time %.3f s, '
+                 '%.1f s wall' % (result.name, self.seed, self.rtf, result.status,
+                                  result.sim_time, result.wall))
+        for v in result.verdicts:
+            self.say(v.line())
+        if result.error:
+            self.say('ERROR %s' % result.error)
+            if result.log_lines:
+                self.say('  last lines of the world/app log:')
+                for ln in result.log_lines:
+                    self.say('  | ' + ln)
+        if self.junit:
+            write_junit(result, self.junit)
+
+
+def _probe_field(proto, path):
+    """Check that a field path's names exist on a default message (indexes not checked)."""
+    v = proto
+    for part in path.split('.'):
+        name = part.split('[')[0]
+        if not name:
+            continue
+        slots = getattr(v, '__slots__', None)
+        if slots is None:
+            return
+        if name not in slots:
+            raise FieldError('%s has no field %r (fields: %s)' % (
+                type(v).__name__, name, ', '.join(slots)))
+        v = getattr(v, name)
+        if '[' in part:
+            typ = dict(zip(proto.__slots__, getattr(proto, '_slot_types', []))).get(name)
+            return   # element types of arrays: checked on the first message
+
+
+def _set_field(msg, path, value):
+    parts = path.split('.')
+    obj = msg
+    for p in parts[:-1]:
+        obj = getattr(obj, p)
+    setattr(obj, parts[-1], type(getattr(obj, parts[-1]))(value))
+
+
+def run_file(path, **kw):
+    """Load and run one scenario file; ScenarioError -> an ERROR result (exit code 2)."""
+    out = kw.get('out') or (lambda s: (sys.stdout.write(s + '\n'), sys.stdout.flush()))
+    try:
+        sc = load(path)
+    except ScenarioError as e:
+        out('ERROR scenario file %s is invalid:' % path)
+        for p in e.problems:
+            out('  ' + p)
+        res = Result(os.path.splitext(os.path.basename(path))[0], [],
+                     'invalid scenario file: %s' % '; '.join(e.problems))
+        if kw.get('junit'):
+            write_junit(res, kw['junit'])
+        return res
+    return Runner(sc, **kw).run()

@@ -41,6 +41,9 @@ LAUNCHES = {
     'office': os.path.join(PKG_ROOT, 'simvid', 'launch', 'office.launch'),
 }
 MAX_SLICE = 1.0          # s of sim time between checks when nothing else is due
+# not recorded unless named in `record:` or used by an expectation (each one makes the
+# renderer draw a frame per message)
+HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/PointCloud2')
 EVENTS_TOPIC = '/scenario/events'
 META_TOPIC = '/scenario/meta'
 
@@ -357,8 +360,7 @@ class Runner(object):
             types = self.topic_types
             prefixes = ['/%s/' % ph['ns'].strip('/') for ph in self.sc.phones]
             for t, typ in types.items():
-                if any(t.startswith(p) for p in prefixes) and typ != 'sensor_msgs/Image' \
-                        and typ != 'sensor_msgs/CompressedImage':
+                if any(t.startswith(p) for p in prefixes) and typ not in HEAVY_TYPES:
                     want.setdefault(t, 'record')
             want.setdefault('/gazebo/environment', 'record')
             for t in self.sc.record:
@@ -837,7 +839,10 @@ class Runner(object):
         from std_msgs.msg import String
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
         inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes)
-        inputs.append('/gazebo/environment') if '/gazebo/environment' not in inputs else None
+        if '/gazebo/environment' not in inputs:
+            inputs.append('/gazebo/environment')
+        if getattr(self, '_meta_replay', None):
+            inputs = self._meta_replay['inputs']
         meta = dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
                     real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
                     duration=self.sc.duration,
@@ -887,7 +892,6 @@ def _probe_field(proto, path):
                 type(v).__name__, name, ', '.join(slots)))
         v = getattr(v, name)
         if '[' in part:
-            typ = dict(zip(proto.__slots__, getattr(proto, '_slot_types', []))).get(name)
             return   # element types of arrays: checked on the first message
 
 

@@ -294,3 +294,119 @@ def test_bluetooth_negative_range(world, caplog):
     bt = plugin(world, BluetoothAdapter)
     world.step(1001)
     assert bt.last_value['heart_rate_belt'][0] == 'connected'
+
+
+# -- NFC ------------------------------------------------------------------------------------
+VCARD = 'BEGIN:VCARD\nVERSION:2.1\nN:Mustermann;Max\nTEL:+49 89 289 00000\nEND:VCARD'
+
+
+class Out(object):
+    def __init__(self, receiver, data):
+        self.receiver, self.data = receiver, data
+
+
+def two_phones(world, gap, back_to_back=False, mode_b='active'):
+    """Phone A face up at z = 1; phone B above it at z = 1 + gap, screen down (face to face)
+    or screen up (A's back... B above A's screen, both facing up: B's back faces A)."""
+    world.add_model(phone('mobile_device'), pose=Pose((0, 0, 1)))
+    rpy = (0, 0, 0) if back_to_back else (math.pi, 0, 0)
+    world.add_model(phone('mobile_device_b'), pose=Pose.from_xyz_rpy((0, 0, 1 + gap), rpy))
+    a, b = plugin(world, NfcDevice, 'mobile_device'), plugin(world, NfcDevice, 'mobile_device_b')
+    if back_to_back:      # both look along +z of their own frame: A up, B down (rolled)
+        world.set_state('mobile_device', Pose.from_xyz_rpy((0, 0, 1), (math.pi, 0, 0)))
+    b.mode = mode_b
+    return a, b
+
+
+def test_nfc_face_to_face_vcard_both_ways(world):
+    a, b = two_phones(world, 0.03)
+    assert a.name == 'mobile_device' and b.name == 'mobile_device_b'
+    assert a.topic == '/mobile_device/nfc/notification'
+    assert b.incoming_pub.topic == '/mobile_device_b/nfc/incoming'
+    world.step(101)
+    assert a.notifications[-1][1:] == ('mobile_device_b', 'active', 'connected')
+    assert b.notifications[-1][1:] == ('mobile_device', 'active', 'connected')
+    assert (a.last_msg.name, a.last_msg.type, a.last_msg.status) == \
+        ('mobile_device_b', 'active', 'connected')
+    a.on_outgoing(Out('mobile_device_b', VCARD))
+    assert b.incoming_pub.last.sender == 'mobile_device' and b.incoming_pub.last.data == VCARD
+    b.on_outgoing(Out('mobile_device', 'OK'))
+    assert a.incoming_pub.last.sender == 'mobile_device_b' and a.incoming_pub.last.data == 'OK'
+    b.on_outgoing(Out('', VCARD))                       # the only partner
+    assert a.incoming_pub.last.data == VCARD
+    # apart to 20 cm: disconnected, both told
+    world.set_state('mobile_device_b', Pose.from_xyz_rpy(
+        world.model_state('mobile_device')[0].p + [0, 0, 0.20], (math.pi, 0, 0)))
+    world.set_state('mobile_device', Pose(world.model_state('mobile_device')[0].p))
+    world.step(100)
+    assert a.notifications[-1][1:] == ('mobile_device_b', 'active', 'disconnected')
+    assert b.notifications[-1][1:] == ('mobile_device', 'active', 'disconnected')
+
+
+def test_nfc_outgoing_without_partner_warns(world, caplog):
+    a, b = two_phones(world, 0.20)
+    world.step(101)
+    assert not a.notifications
+    n = b.incoming_pub.count
+    with caplog.at_level(logging.WARNING):
+        assert a.on_outgoing(Out('mobile_device_b', VCARD)) is None
+    lines = [r.getMessage() for r in caplog.records if 'not delivered' in r.getMessage()]
+    assert len(lines) == 1 and 'mobile_device_b' in lines[0]
+    assert b.incoming_pub.count == n
+
+
+def test_nfc_back_to_back_no_connection(world):
+    a, b = two_phones(world, 0.03, back_to_back=True)
+    world.step(301)
+    assert not a.notifications and not b.notifications
+
+
+def test_nfc_passive_needs_an_active_partner(world):
+    a, b = two_phones(world, 0.03, mode_b='passive')
+    world.step(101)
+    assert a.notifications[-1][1:] == ('mobile_device_b', 'passive', 'connected')
+    a.mode = 'passive'
+    world.step(100)
+    assert a.notifications[-1][3] == 'disconnected'
+
+
+def tag(xyz, data='U:http://vmi.lmt.ei.tum.de', extra=''):
+    d = '<data>%s</data>' % data if data is not None else ''
+    return parse_sdf_model('''<model name="poster"><static>true</static><pose>%g %g %g 0 0 0</pose>
+      <link name="p"/><plugin name="tag" filename="libgazebo_ros_nfc_tag.so">%s%s
+      </plugin></model>''' % (tuple(xyz) + (d, extra)))
+
+
+@pytest.mark.parametrize('mode', ['active', 'passive'])
+def test_nfc_tag_read_by_active_only(world, mode):
+    world.add_model(tag((0, 0, 1.025)))
+    world.add_model(phone(), pose=Pose((0, 0, 1)))
+    a = plugin(world, NfcDevice)
+    a.mode = mode
+    world.step(11)          # 10 ms: the phone fell 0.5 mm
+    if mode == 'active':
+        assert a.notifications == [(pytest.approx(0.0, abs=0.2), 'poster', 'passive',
+                                    'connected')]
+        assert a.received[-1][1:] == ('poster', 'U:http://vmi.lmt.ei.tum.de')
+        assert a.incoming_pub.last.data == 'U:http://vmi.lmt.ei.tum.de'
+    else:
+        assert not a.notifications and not a.received
+
+
+def test_nfc_bad_input(world, caplog):
+    with caplog.at_level(logging.ERROR):
+        world.add_model(tag((0, 0, 1.025), data=None))
+        world.add_model(parse_sdf_model('''<model name="t2"><static>true</static>
+          <pose>5 0 1 0 0 0</pose><link name="p"/>
+          <plugin name="tag" filename="libgazebo_ros_nfc_tag.so"><data>x</data>
+          <range>-0.03</range><direction>sideways</direction></plugin></model>'''))
+    msgs = [r.getMessage() for r in caplog.records]
+    assert sum('has no data' in m and 'poster' in m for m in msgs) == 1
+    assert sum('range' in m and '-0.03' in m for m in msgs) == 1
+    assert sum('direction' in m and 'sideways' in m for m in msgs) == 1
+    t2 = world.plugins['t2'][0]
+    assert t2.range == 0.04 and t2.direction == 'omni'
+    world.add_model(phone(), pose=Pose((0, 0, 1)))
+    world.step(11)
+    a = plugin(world, NfcDevice)
+    assert not a.notifications                      # the tag without data is not there

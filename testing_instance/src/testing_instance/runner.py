@@ -789,9 +789,14 @@ class Runner(object):
         try:
             res = self.step_srv(t_next)
         except Exception as e:  # noqa: BLE001 - the world died or the watchdog stopped it
+            if self.world_proc is not None:      # roslaunch tears down after its node died
+                try:
+                    self.world_proc.p.wait(15.0)
+                except subprocess.TimeoutExpired:
+                    pass
             self._check_world()
-            raise RunError('step_world failed at sim time %.3f s: %s' % (self.t, e),
-                           self.world_log())
+            raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
+                           % (self.t, e), self.world_log())
         return res.sim_time
 
     def _loop(self, step_to):

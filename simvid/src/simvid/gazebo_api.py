@@ -29,6 +29,7 @@ from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelSta
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
+from . import fastpub
 from .model import ModelError
 from .sdf import parse_sdf_model
 from .transforms import InvalidPose, Pose
@@ -79,7 +80,9 @@ class GazeboRosApi(object):
         self._get_seq = 0
         self._last_tf_stamp = None
         self._static_tf = {}
-        self.clock_pub = rospy.Publisher('/clock', Clock, queue_size=10)
+        # /clock goes out before every plugin tick: queued without rospy's per-message GIL
+        # yield (simvid.fastpub), which cost the world thread more than the message itself
+        self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10)
         self.states_pub = rospy.Publisher('/gazebo/model_states', ModelStates, queue_size=1)
         self.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
         self.tf_static_pub = rospy.Publisher('/tf_static', TFMessage, queue_size=100, latch=True)
@@ -286,21 +289,28 @@ class GazeboRosApi(object):
             self.clock_pub.publish(Clock(stamp))
 
     def publish(self):
-        """Publish /clock, /gazebo/model_states and /tf of the dynamic models' roots."""
+        """Publish /clock, /gazebo/model_states and /tf of the dynamic models' roots. The
+        states and transforms are only gathered while someone subscribes to them; /clock is
+        repeated unchanged only while paused (it goes out with every plugin tick anyway)."""
         w = self.world
+        want_states = self.states_pub.get_num_connections() > 0
+        want_tf = self.tf_pub.get_num_connections() > 0
         with w.lock:
             stamp = w.ros_now()
             states = ModelStates()
             tfs = []
-            for name, model in w.models.items():
-                pose, lin, ang = w.model_state(name)
-                states.name.append(name)
-                states.pose.append(pose.to_msg(PoseMsg()))
-                states.twist.append(_twist_msg(lin, ang))
-                if not model.static:
-                    tfs.append(_transform('world', tf_frame(model, model.root_link), pose, stamp))
-        self.publish_clock(stamp, repeat=True)
-        if self.states_pub.get_num_connections():
+            if want_states or (want_tf and stamp != self._last_tf_stamp):
+                for name, model in w.models.items():
+                    pose, lin, ang = w.model_state(name)
+                    if want_states:
+                        states.name.append(name)
+                        states.pose.append(pose.to_msg(PoseMsg()))
+                        states.twist.append(_twist_msg(lin, ang))
+                    if want_tf and not model.static:
+                        tfs.append(_transform('world', tf_frame(model, model.root_link), pose,
+                                              stamp))
+        self.publish_clock(stamp, repeat=bool(self.paused))
+        if want_states:
             self.states_pub.publish(states)
         if tfs and stamp != self._last_tf_stamp:   # tf2 rejects repeated stamps (paused)
             self._last_tf_stamp = stamp

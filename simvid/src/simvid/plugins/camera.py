@@ -30,6 +30,7 @@ import math
 import threading
 
 from . import Plugin, PluginError, register
+from .. import fastpub
 from ..model import _local
 from ..camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
 from .params import Param, ParamError, convert
@@ -207,6 +208,8 @@ class CameraPlugin(Plugin):
             self._pubs['depth'] = rospy.Publisher(self.depth_topic, Image, queue_size=2)
             self._pubs['depth_info'] = rospy.Publisher(self.depth_info_topic, CameraInfo,
                                                        queue_size=2)
+        for pub in self._pubs.values():     # no GIL yield per frame (simvid.fastpub)
+            fastpub.no_yield(pub)
         self._subs = [rospy.Subscriber(self.hfov_topic, Float64, self._on_hfov, queue_size=10),
                       rospy.Subscriber(self.rate_topic, Float64, self._on_rate, queue_size=10)]
         rospy.loginfo('camera %s: %dx%d, hfov %.1f deg (f = %.2f px), %s Hz sim time, '

@@ -97,6 +97,24 @@ class CameraView(object):
         return (self.fx * xo / zo + self.cx, self.fy * yo / zo + self.cy), zo
 
 
+def _pose_matrices(pq):
+    """(n, 4, 4) homogeneous matrices of n poses given as rows (x, y, z, qx, qy, qz, qw)."""
+    x, y, z, w = pq[:, 3], pq[:, 4], pq[:, 5], pq[:, 6]
+    m = np.zeros((len(pq), 4, 4))
+    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    m[:, 0, 1] = 2 * (x * y - z * w)
+    m[:, 0, 2] = 2 * (x * z + y * w)
+    m[:, 1, 0] = 2 * (x * y + z * w)
+    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    m[:, 1, 2] = 2 * (y * z - x * w)
+    m[:, 2, 0] = 2 * (x * z - y * w)
+    m[:, 2, 1] = 2 * (y * z + x * w)
+    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    m[:, :3, 3] = pq[:, :3]
+    m[:, 3, 3] = 1.0
+    return m
+
+
 class _Item(object):
     """One visual of one link, with its GL buffer (created lazily in the render thread)."""
 
@@ -129,6 +147,8 @@ class Renderer(object):
         self.ctx = context or get_context()
         self._items = {}               # model name -> [_Item]
         self._link_poses = {}          # model name -> {link: 4x4}
+        self._pending_poses = {}       # model name -> {link: Pose or 4x4}, applied at render
+        self._last_pq = {}             # model name -> (link names, (n, 7) positions+quats)
         self._images = {}              # texture path -> RGBA array (loaded once)
         self._meshes = {}              # (mesh file, scale) -> MeshData (read once)
         self._gl_textures = {}         # texture key -> GL id
@@ -190,6 +210,8 @@ class Renderer(object):
             if model.name in self._items:
                 self._drop(model.name)
             self._items[model.name] = items
+            self._pending_poses.pop(model.name, None)
+            self._last_pq.pop(model.name, None)
             self._link_poses[model.name] = poses
             self._update_world(model.name)
         return len(items)
@@ -210,6 +232,8 @@ class Renderer(object):
         with self._lock:
             self._drop(name)
             self._link_poses.pop(name, None)
+            self._pending_poses.pop(name, None)
+            self._last_pq.pop(name, None)
             for key in [k for k in self._dyn if k[0] == name]:
                 d = self._dyn.pop(key)
                 if d.tex is not None:
@@ -230,20 +254,54 @@ class Renderer(object):
 
     def set_link_poses(self, model_name, poses):
         """World poses of links: {link name: Pose (or 4x4 matrix)}. Links not named keep
-        their last pose."""
+        their last pose. Cheap: the poses are kept and turned into matrices by the next
+        render (the world syncs poses far more often than cameras draw)."""
         with self._lock:
+            pend = self._pending_poses.get(model_name)
+            if pend is None:
+                self._pending_poses[model_name] = dict(poses)
+            else:
+                pend.update(poses)
+
+    def _apply_poses(self):
+        """Turn the poses set since the last render into matrices: one numpy batch for all
+        links; a model whose link poses did not change (static furniture) is skipped."""
+        if not self._pending_poses:
+            return
+        pending, self._pending_poses = self._pending_poses, {}
+        changed = []
+        for model_name, poses in pending.items():
             cur = self._link_poses.setdefault(model_name, {})
+            names = [ln for ln, p in poses.items() if isinstance(p, Pose)]
             for ln, p in poses.items():
-                cur[ln] = p.matrix() if isinstance(p, Pose) else np.asarray(p, float)
+                if not isinstance(p, Pose):
+                    cur[ln] = np.asarray(p, float)
+            if names:
+                pq = np.array([np.concatenate((poses[ln].p, poses[ln].q)) for ln in names],
+                              float)
+                last = self._last_pq.get(model_name)
+                if last is not None and last[0] == names and np.array_equal(last[1], pq) \
+                        and all(ln in cur for ln in names):
+                    if len(names) == len(poses):
+                        continue                      # nothing moved
+                else:
+                    self._last_pq[model_name] = (names, pq)
+                    for ln, m in zip(names, _pose_matrices(pq)):
+                        cur[ln] = m
+            changed.append(model_name)
+        for model_name in changed:
             if model_name in self._items:
                 self._update_world(model_name)
 
     def _update_world(self, model_name):
         poses = self._link_poses.get(model_name, {})
-        for it in self._items.get(model_name, []):
-            lp = poses.get(it.link)
-            if lp is not None:
-                it.world = lp.dot(it.origin)
+        its = [it for it in self._items.get(model_name, []) if it.link in poses]
+        if not its:
+            return
+        world = np.matmul(np.array([poses[it.link] for it in its]),
+                          np.array([it.origin for it in its]))
+        for it, w in zip(its, world):
+            it.world = w
 
     def set_lights(self, lights, ambient=DEFAULT_AMBIENT, default_sun=True):
         """simvid.model.Light list (up to 8 are used) and the ambient colour (rgb 0..1).
@@ -322,6 +380,7 @@ class Renderer(object):
         w, h = view.width, view.height
         with self.ctx, self._lock:
             self.ctx.target(w, h)
+            self._apply_poses()
             self._empty_trash()
             self._upload_dynamic()
             bg = view.background if view.background is not None else self.background

@@ -72,6 +72,13 @@ def main(argv=None, prog='run_scenario'):
         return farm(files, max(1, a.jobs), a)
     res = run_file(files[0], seed=a.seed, record=a.record, junit=a.junit,
                    real_time_factor=a.rtf, attach=a.attach, replay=a.replay)
+    if a.text:          # rostest --text: the summary a rosunit test node prints
+        errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])
+        fails = [v.name for v in res.verdicts if not v.passed and not v.error]
+        print('-' * 61 + '\nSUMMARY:\n * RESULT: %s\n * TESTS: %d\n * ERRORS: %d [%s]\n'
+              ' * FAILURES: %d [%s]' % ('SUCCESS' if res.exit_code == EXIT_PASS else 'FAIL',
+                                       max(1, len(res.verdicts)), len(errs), ', '.join(errs),
+                                       len(fails), ', '.join(fails)))
     return res.exit_code
 
 

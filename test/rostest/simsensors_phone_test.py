@@ -8,12 +8,13 @@ import unittest
 import rosgraph
 import rospy
 import rostest
+from geometry_msgs.msg import Pose as PoseMsg
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, Illuminance, Range
 from std_msgs.msg import Bool, ColorRGBA
 
 from mobile_device_sim.msg import ButtonEvent, ContactsState, PowerState, TouchEvent
-from mobile_device_sim.srv import GetModelState
+from mobile_device_sim.srv import DeleteModel, GetModelState, SpawnModel
 
 NS = '/mobile_device/'
 # topic -> (documented type, class, rate in Hz of sim time or None for event topics)
@@ -27,6 +28,9 @@ TOPICS = {
     'power_state': ('mobile_device_sim/PowerState', PowerState, 10.0),
     'battery_state': ('sensor_msgs/BatteryState', BatteryState, 1.0),
 }
+HAND = '''<robot name="hand"><link name="palm">
+  <collision><geometry><box size="0.1 0.1 0.02"/></geometry></collision></link>
+  <gazebo><static>true</static></gazebo></robot>'''
 
 
 class Recorder(object):
@@ -132,6 +136,28 @@ class PhoneSensors(unittest.TestCase):
         pub.publish(Bool(False))
         self.sim_sleep(1.5)
         self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 0)
+
+    def test_proximity_hand(self):
+        """A hand 2 cm over the sensor (phone at 3.288 -2.11 1.0, the sensor link at
+        +0.055 +0.012 +0.006 of mobile_base_link): near (0 m), and the light it covers
+        drops; taken away: far (0.05 m) again."""
+        before = self.rec['illuminance'].msgs[-1].illuminance
+        spawn = rospy.ServiceProxy('/gazebo/spawn_urdf_model', SpawnModel)
+        p = PoseMsg()
+        p.position.x, p.position.y = 3.288 + 0.055, -2.11 + 0.012
+        p.position.z = 1.0 + 0.006 + 0.02 + 0.01
+        p.orientation.w = 1.0
+        res = spawn('hand', HAND, '', p, 'world')
+        self.assertTrue(res.success, res.status_message)
+        self.sim_sleep(1.5)
+        self.assertEqual(self.rec['proximity'].msgs[-1].range, 0.0)
+        covered = self.rec['illuminance'].msgs[-1].illuminance
+        self.assertLess(covered, 0.5 * before)
+        res = rospy.ServiceProxy('/gazebo/delete_model', DeleteModel)('hand')
+        self.assertTrue(res.success, res.status_message)
+        self.sim_sleep(1.5)
+        self.assertAlmostEqual(self.rec['proximity'].msgs[-1].range, 0.05, places=6)
+
 
 if __name__ == '__main__':
     rostest.rosrun('mobile_device_sim', 'simsensors_phone', PhoneSensors)

@@ -267,9 +267,6 @@ class TouchScreen(Sensor):
         return PressButtonResponse(ok, text)
 
     # -- sampling ----------------------------------------------------------------------------------
-    def _contacts(self, link):
-        return self.world.physics.contacts(self.model.name, link)
-
     def current_touches(self, t, contacts):
         """{key: (x px, y px, depth, source)} of the bodies touching the screen now."""
         pose = self.world.link_pose(self.model.name, self.body)
@@ -329,8 +326,11 @@ class TouchScreen(Sensor):
 
     def update(self, sim_time):
         t = sim_time
-        screen = self._contacts(self.body)
-        by_link = dict((link, self._contacts(link)) for _, link in self.button_links)
+        every = {}                  # one query for the whole phone, split by link
+        for c in self.world.physics.contacts(self.model.name):
+            every.setdefault(c.link, []).append(c)
+        screen = every.get(self.body, [])
+        by_link = dict((link, every.get(link, [])) for _, link in self.button_links)
         touches = self.current_touches(t, screen)
         events = self.tracker.update(touches)
         buttons = self.current_buttons(t, by_link)

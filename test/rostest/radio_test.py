@@ -9,6 +9,7 @@ import rosgraph
 import rospy
 import rostest
 from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Bool, Float64, String
 
 from mobile_device_sim.msg import (CellSignal, ModelState, NfcIncoming, NfcNotification,
                                    NfcOutgoing, WifiLink, WifiScan)
@@ -111,6 +112,33 @@ class Radio(unittest.TestCase):
         self.assertTrue(lk.connected)
         self.assertEqual(lk.bssid, AP_WEST)
         self.assertGreater(lk.link_speed, 0)
+
+    def test_5_switches_wifi_and_bluetooth(self):
+        self.put(A, 4.5, -1.0, 1.0)
+        st = Recorder('/%s/bluetooth/heart_rate_belt/state' % A, String)
+        hr = Recorder('/%s/bluetooth/heart_rate_belt/heart_rate' % A, Float64)
+        self.wait_for('belt connected', lambda: st.msgs and st.msgs[-1].data == 'connected')
+        self.wait_for('heart rate', lambda: len(hr.msgs) >= 2)
+        self.assertTrue(50 < hr.msgs[-1].data < 100, hr.msgs[-1].data)
+        bt = rospy.Publisher('/%s/bluetooth/enable' % A, Bool, queue_size=1, latch=True)
+        wifi = rospy.Publisher('/%s/wifi/enable' % A, Bool, queue_size=1, latch=True)
+        bt.publish(Bool(data=False))
+        wifi.publish(Bool(data=False))
+        self.wait_for('belt disabled', lambda: st.msgs[-1].data == 'disabled')
+        self.wait_for('wifi off', lambda: not self.link.msgs[-1].enabled)
+        n = len(hr.msgs)
+        self.sim_sleep(2.5)
+        self.assertEqual(len(hr.msgs), n)
+        self.assertFalse(self.link.msgs[-1].connected)
+        self.assertEqual(self.scan.msgs[-1].access_points, [])
+        # out of reach: the belt's range is 10 m
+        bt.publish(Bool(data=True))
+        wifi.publish(Bool(data=True))
+        self.wait_for('belt back', lambda: st.msgs[-1].data == 'connected')
+        self.put(A, 20.0, -2.0, 1.0)
+        self.wait_for('belt out of range', lambda: st.msgs[-1].data == 'out_of_range')
+        self.put(A, 4.5, -1.0, 1.0)
+        self.wait_for('wifi on', lambda: self.link.msgs[-1].connected)
 
     # -- NFC between two phones ------------------------------------------------------------
     def test_2_nfc_vcard_exchange_face_to_face(self):

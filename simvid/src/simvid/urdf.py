@@ -274,6 +274,10 @@ def _sensor(sel, model, link):
 
 def _plugin(pel, model, link, sensor, stype):
     filename = pel.get('filename') or pel.get('plugin')
+    if not filename and _is_ns(pel.tag, 'controller'):
+        # 2011 controllers built into Gazebo name no library (thesis snippet 3.3.1:
+        # <controller:generic_gps>): the controller type is the name, lib<type>.so
+        filename = 'lib%s.so' % _local(pel.tag)
     if not filename:
         raise ModelError('plugin element <%s> of model %r names no library (filename= or plugin=)'
                          % (_local(pel.tag), model.name))

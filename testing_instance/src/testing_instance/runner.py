@@ -342,7 +342,8 @@ class Runner(object):
 
     def _topic_types(self):
         import rosgraph
-        return dict(rosgraph.Master('/scenario_runner').getTopicTypes())
+        # topics somebody publishes (getTopicTypes also lists topics only subscribed to)
+        return dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
 
     def _msg_class(self, typ):
         import roslib.message
@@ -390,6 +391,9 @@ class Runner(object):
             while time.monotonic() < deadline and any(
                     self.subs[t].get_num_connections() == 0 for t in new):
                 time.sleep(0.02)
+            if os.environ.get('SCENARIO_DEBUG'):
+                self.say('subscribed %s; unconnected: %s' % (new, [
+                    t for t in new if self.subs[t].get_num_connections() == 0]))
         return new
 
     def _check_fields(self, topic, cls):
@@ -783,7 +787,9 @@ class Runner(object):
         for ev in self.sc.timeline:
             if 'at' in ev:
                 self._push(self.t0 + ev['at'], lambda tt, e=ev: self._fire(e, tt), ev['id'])
+        w0, s0 = time.monotonic(), self.t
         self._loop(self._step_to)
+        self.loop_wall = (time.monotonic() - w0, self.t - s0)
 
     def _step_to(self, t_next):
         try:
@@ -870,6 +876,10 @@ class Runner(object):
         self.say('scenario %s (seed %d, real_time_factor %g): %s at sim time %.3f s, '
                  '%.1f s wall' % (result.name, self.seed, self.rtf, result.status,
                                   result.sim_time, result.wall))
+        lw = getattr(self, 'loop_wall', None)
+        if lw and lw[0] > 0:
+            self.say('timeline: %.3f s of sim time in %.2f s of wall time (real-time factor '
+                     '%.2f)' % (lw[1], lw[0], lw[1] / lw[0]))
         for v in result.verdicts:
             self.say(v.line())
         if result.error:

@@ -140,12 +140,19 @@ def test_moving_model_seen_at_once(world):
 
 def test_office_walls(world):
     world.load_world_file(OFFICE)
-    # from the desk towards the west wall (inner face at x = 0)
+    # from the desk westwards: the inner drywall wall (x 1.4..1.6), then the west wall (x < 0)
     h = world.raycast((3.32, -1.0, 1.5), (-1, 0, 0), 20)
-    assert h.model == 'walls' and h.distance == pytest.approx(3.32)
+    assert (h.model, h.material) == ('inner_wall', 'drywall')
+    assert h.distance == pytest.approx(3.32 - 1.6)
+    h = world.raycast((3.32, -1.0, 1.5), (-1, 0, 0), 20, ignore=('inner_wall',))
+    assert h.model == 'walls' and h.link == 'west' and h.distance == pytest.approx(3.32)
     iv = world.segment_intervals((3.0, -1.0, 1.5), (-3.0, -1.0, 1.5))
-    assert [(i[2], i[3]) for i in iv][-1] == ('walls', 'west')
-    assert iv[-1][1] - iv[-1][0] == pytest.approx(0.1)
+    assert [(i[2], i[3]) for i in iv] == [('inner_wall', 'wall'), ('walls', 'west')]
+    assert iv[0][1] - iv[0][0] == pytest.approx(0.2)
+    assert iv[1][1] - iv[1][0] == pytest.approx(0.1)
+    # through the inner door (y > -0.1) nothing but the west wall
+    iv = world.segment_intervals((3.0, 0.5, 1.5), (-3.0, 0.5, 1.5))
+    assert [(i[2], i[3]) for i in iv] == [('walls', 'west')]
 
 
 def test_bad_input(world):

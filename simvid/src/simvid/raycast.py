@@ -13,7 +13,8 @@ Everything is numpy-vectorised across the shapes of each kind. The shapes come f
 physics engine's lumped model records (``simvid.physics.base.lump_model``: every collision
 of every link with its pose in the root-link frame); world transforms are cached per model
 and recomputed only when that model's pose changed (static models: when they are moved;
-dynamic models: read from the engine at each call, so a teleport is seen at once).
+dynamic models: read from the engine after each world step or teleport, so a teleport is
+seen at once).
 
 ``ignore``: model names (the whole model) or ``'model::link'`` (one link).
 
@@ -68,6 +69,7 @@ class RayCaster(object):
     def __init__(self, world):
         self.world = world
         self._key = None
+        self._stamp = None
         self._poses = {}
         self._ignore_cache = {}
 
@@ -171,6 +173,12 @@ class RayCaster(object):
         if key != self._key:
             self._build()
             self._key = key
+            self._stamp = None
+        # poses change only by a world step or a teleport (engine.set_model_pose)
+        stamp = (self.world.steps, getattr(phys, 'pose_version', None))
+        if stamp == self._stamp and stamp[1] is not None:
+            return
+        self._stamp = stamp
         for name, rec in recs.items():
             if name not in self.model_shapes:
                 continue

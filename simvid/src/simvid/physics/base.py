@@ -359,6 +359,7 @@ class PhysicsEngine(object):
         self.step_size = step_size
         self.gravity = check_vector(gravity, 'gravity')
         self._models = {}
+        self.pose_version = 0
 
     # ---- model bookkeeping -------------------------------------------------------------
     def add_model(self, model):
@@ -400,6 +401,7 @@ class PhysicsEngine(object):
     def set_model_pose(self, name, pose):
         rec = self._get(name)
         pose = check_pose(pose, 'new pose of model %r' % name)
+        self.pose_version += 1      # teleports since the last step (simvid.raycast cache)
         if rec.static:
             rec.pose = pose
             self._place_static(rec, pose)

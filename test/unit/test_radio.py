@@ -410,3 +410,21 @@ def test_nfc_bad_input(world, caplog):
     world.step(11)
     a = plugin(world, NfcDevice)
     assert not a.notifications                      # the tag without data is not there
+
+
+def test_nfc_partner_deleted_is_disconnected(world):
+    a, b = two_phones(world, 0.03)
+    world.step(101)
+    assert a.notifications[-1][3] == 'connected'
+    world.delete_model('mobile_device_b')
+    assert a.notifications[-1][1:] == ('mobile_device_b', 'active', 'disconnected')
+    world.step(200)
+    assert a.notifications[-1][3] == 'disconnected'
+    assert a.on_outgoing(Out('mobile_device_b', 'x')) is None
+
+
+def test_transmitters_leave_with_their_model(world):
+    world.add_model(ap('ap', (2, 0, 1), '00:00:00:00:00:01'))
+    assert [t.id for t in world.environment.transmitters] == ['00:00:00:00:00:01']
+    world.delete_model('ap')
+    assert world.environment.transmitters == []

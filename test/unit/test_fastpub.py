@@ -1,0 +1,133 @@
+"""simvid.fastpub without a roscore: the queued connection that does not yield the GIL per
+message (same queue, drop-oldest and error behaviour as rospy's QueuedConnection), and the
+renderer's lazy pose application that the camera path relies on."""
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip('rospy')
+
+from simvid import fastpub  # noqa: E402
+from simvid.model import Geometry, Link, Material, Model, Visual  # noqa: E402
+from simvid.render import CameraView, Renderer  # noqa: E402
+from simvid.transforms import Pose, quat_from_rpy  # noqa: E402
+
+
+class FakeTransport(object):
+    """What QueuedConnection wraps: write_data blocks until released (a slow subscriber)."""
+
+    def __init__(self):
+        self.done = False
+        self.got = []
+        self.release = threading.Event()
+        self.cleanup = None
+        self.endpoint_id = '/someone'
+
+    def set_cleanup_callback(self, cb):
+        self.cleanup = cb
+
+    def write_data(self, data):
+        self.release.wait(10)
+        self.got.append(data)
+        return True
+
+
+def test_no_yield_connection_queues_drops_oldest_and_never_sleeps(monkeypatch):
+    t = FakeTransport()
+    c = fastpub.NoYieldConnection(t, 3)
+    try:
+        c.write_data(b'first')                  # taken by the writer thread, which blocks
+        deadline = time.time() + 5
+        while c._queue and time.time() < deadline:
+            time.sleep(0.001)
+        slept = []
+        monkeypatch.setattr(time, 'sleep', lambda s: slept.append(s))
+        for i in range(6):
+            assert c.write_data(b'm%d' % i) is True
+        assert not slept                        # rospy's QueuedConnection sleeps here
+        assert c._queue == [b'm3', b'm4', b'm5']   # queue 3: the oldest were dropped
+        assert c.endpoint_id == '/someone'      # everything else is the transport's
+    finally:
+        monkeypatch.undo()
+        t.release.set()
+        deadline = time.time() + 5
+        while len(t.got) < 4 and time.time() < deadline:
+            time.sleep(0.01)
+        t.done = True
+        with c._lock:
+            c._cond_data_available.notify()
+    assert t.got == [b'first', b'm3', b'm4', b'm5']
+
+
+def test_writer_error_is_raised_on_the_next_write():
+    t = FakeTransport()
+    c = fastpub.NoYieldConnection(t, 2)
+    try:
+        c._error = IOError('broken pipe')
+        with pytest.raises(IOError, match='broken pipe'):
+            c.write_data(b'x')
+        assert c.write_data(b'y') is True       # reported once
+    finally:
+        t.release.set()
+        t.done = True
+        with c._lock:
+            c._cond_data_available.notify()
+
+
+def test_no_yield_leaves_unqueued_publishers_alone():
+    class P(object):
+        class impl(object):
+            queue_size = None
+            connections = []
+    assert fastpub.no_yield(P) is P
+    assert not hasattr(P.impl, '_no_yield')
+
+
+# --- renderer: poses applied at render time --------------------------------------------------
+RED = Material((1.0, 0.0, 0.0, 1.0), lit=False)
+
+
+def _red_centroid(img):
+    m = (img[:, :, 0] > 200) & (img[:, :, 1] < 60) & (img[:, :, 2] < 60)
+    ys, xs = np.nonzero(m)
+    assert len(xs) > 3, 'ball not visible'
+    return xs.mean(), ys.mean()
+
+
+def _scene():
+    r = Renderer()
+    r.add_model(Model('ball', links={'l': Link('l', visuals=[
+        Visual(Geometry('sphere', radius=0.1), material=RED)])}, pose=Pose((3, 0, 0))))
+    return r, CameraView(120, 90, math.radians(60), background=(0, 0, 0))
+
+
+def test_last_pose_set_before_a_render_is_drawn():
+    r, view = _scene()
+    x0, _ = _red_centroid(r.render(view))
+    assert abs(x0 - 60) < 2                                   # straight ahead
+    r.set_link_poses('ball', {'l': Pose((3, 1.0, 0))})      # left (+y) ...
+    r.set_link_poses('ball', {'l': Pose((3, -0.5, 0))})     # ... then right: this one counts
+    x1, _ = _red_centroid(r.render(view))
+    assert x1 > x0 + 5
+    # a 4x4 matrix works as well, and rendering again without a change keeps the picture
+    m = Pose((3, 0.5, 0.3), quat_from_rpy(0, 0, 0.3)).matrix()
+    r.set_link_poses('ball', {'l': m})
+    a = r.render(view)
+    x2, y2 = _red_centroid(a)
+    assert x2 < x0 - 5 and y2 < 45 - 3                        # left and up
+    r.set_link_poses('ball', {'l': Pose((3, 0.5, 0.3), quat_from_rpy(0, 0, 0.3))})
+    assert np.array_equal(r.render(view), a)
+
+
+def test_poses_of_a_removed_model_do_not_come_back():
+    r, view = _scene()
+    r.set_link_poses('ball', {'l': Pose((3, 1.0, 0))})
+    r.remove_model('ball')
+    assert r.render(view).max() == 0
+    r.add_model(Model('ball', links={'l': Link('l', visuals=[
+        Visual(Geometry('sphere', radius=0.1), material=RED)])}, pose=Pose((3, 0, 0))))
+    x, _ = _red_centroid(r.render(view))
+    assert abs(x - 60) < 2                                    # at its new model pose

@@ -158,7 +158,7 @@ class _NfcBase(Sensor):
     PUBLISH_EVERY_TICK = False
     COMMON = [
         Param('range', float, 0.04, aliases=('maxRange', 'max_range'), unit='m',
-              check=_range_ok, doc='maximum distance to a partner (at most 0.10 m)'),
+              check=_range_ok, check_text='> 0 and <= 0.10', doc='maximum distance to a partner (at most 0.10 m)'),
         Param('direction', DIRECTIONS, 'omni', doc='main direction in the report frame'),
         Param('coneAngle', float, 60.0, aliases=('cone_angle',), unit='deg',
               check=(0.0, 180.0), doc='half-angle around the direction'),

@@ -133,6 +133,9 @@ def parse_materials(text):
     return out
 
 
+parse_materials.what = 'name:dB_per_metre pairs (e.g. "glass:30 wood:40")'
+
+
 class Transmitter(object):
     """A radio source in the world: kind ('wifi', 'cell', 'bluetooth'), id (BSSID / cell
     id / device name), name (SSID / operator / device name), frequency (MHz), channel,

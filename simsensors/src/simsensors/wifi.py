@@ -92,10 +92,11 @@ class AccessPoint(TransmitterPlugin):
     KIND = 'wifi'
     PARAMS = [
         Param('bssid', str, None, aliases=('BSSID', 'mac', 'hardwareAddress'),
-              check=rb.valid_bssid, doc='hardware address aa:bb:cc:dd:ee:ff (default: '
+              check=rb.valid_bssid, check_text='of six hex pairs aa:bb:cc:dd:ee:ff',
+              doc='hardware address aa:bb:cc:dd:ee:ff (default: '
               'derived from the model name, locally administered)'),
         Param('ssid', str, 'mobile_device_sim', aliases=('SSID', 'essid')),
-        Param('channel', int, 6, check=_channel_ok, doc='2.4 GHz 1..14 or 5 GHz 32..177'),
+        Param('channel', int, 6, check=_channel_ok, check_text='in 1..14 or 32..177', doc='2.4 GHz 1..14 or 5 GHz 32..177'),
         Param('frequency', float, None, unit='MHz', check='>0',
               doc='overrides channel'),
         Param('txPower', float, 20.0, aliases=('P_TX', 'p_tx', 'tx_power'), unit='dBm',

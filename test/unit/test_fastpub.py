@@ -131,3 +131,24 @@ def test_poses_of_a_removed_model_do_not_come_back():
         Visual(Geometry('sphere', radius=0.1), material=RED)])}, pose=Pose((3, 0, 0))))
     x, _ = _red_centroid(r.render(view))
     assert abs(x - 60) < 2                                    # at its new model pose
+
+
+def test_pose_source_is_pulled_at_each_render():
+    r, view = _scene()
+    where = {'y': 0.0}
+    calls = []
+
+    def source(name):
+        calls.append(name)
+        if name != 'ball':
+            raise KeyError(name)
+        return {'l': Pose((3, where['y'], 0))}
+    r.set_pose_source(source)
+    x0, _ = _red_centroid(r.render(view))
+    where['y'] = -0.5                       # moved in the "world": nobody pushes it
+    x1, _ = _red_centroid(r.render(view))
+    assert x1 > x0 + 5 and calls == ['ball', 'ball']
+    r.set_pose_source(None)
+    where['y'] = 0.5
+    x2, _ = _red_centroid(r.render(view))
+    assert abs(x2 - x1) < 0.5               # no source: the last pose stays

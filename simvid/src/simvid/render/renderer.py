@@ -149,6 +149,7 @@ class Renderer(object):
         self._link_poses = {}          # model name -> {link: 4x4}
         self._pending_poses = {}       # model name -> {link: Pose or 4x4}, applied at render
         self._last_pq = {}             # model name -> (link names, (n, 7) positions+quats)
+        self._pose_source = None       # fn(model name) -> {link: Pose}, pulled at render
         self._images = {}              # texture path -> RGBA array (loaded once)
         self._meshes = {}              # (mesh file, scale) -> MeshData (read once)
         self._gl_textures = {}         # texture key -> GL id
@@ -262,6 +263,28 @@ class Renderer(object):
                 self._pending_poses[model_name] = dict(poses)
             else:
                 pend.update(poses)
+
+    def set_pose_source(self, fn):
+        """Pull link poses at each render instead of having them pushed: ``fn(model_name)``
+        returns {link: Pose (or 4x4)} (e.g. ``World.link_poses``); None turns it off. A
+        world that steps far more often than anything renders then computes the poses once
+        per frame instead of once per step. ``fn`` is called before the renderer takes its
+        lock (it may take the world's lock); a model it fails for keeps its last poses."""
+        self._pose_source = fn
+
+    def _pull_poses(self):
+        fn = self._pose_source
+        if fn is None:
+            return
+        with self._lock:
+            names = list(self._items)
+        for name in names:
+            try:
+                poses = fn(name)
+            except Exception:  # noqa: BLE001 - e.g. deleted meanwhile: keep the last poses
+                continue
+            if poses:
+                self.set_link_poses(name, poses)
 
     def _apply_poses(self):
         """Turn the poses set since the last render into matrices: one numpy batch for all
@@ -378,6 +401,7 @@ class Renderer(object):
         nothing was drawn."""
         from OpenGL import GL
         w, h = view.width, view.height
+        self._pull_poses()
         with self.ctx, self._lock:
             self.ctx.target(w, h)
             self._apply_poses()

@@ -85,6 +85,9 @@ def test_examples_farm_and_failure_reports(tmp_path):
     assert re.search(r"\[auto_rotate_fails.yaml\] FAIL landscape: expected eventually "
                      r"/rotate_app/rotation.data == 270 in \[1.800, 2.600\] s after landscape; "
                      r"actual last 90", out), out
+    assert re.search(r"\[wifi_walk_fails.yaml\] FAIL west_ap_in_the_west_room: expected always "
+                     r"/mobile_device/wifi/link.bssid == '00:1a:2b:3c:4d:01' .* after arrived; "
+                     r"actual '00:1a:2b:3c:4d:02'", out), out
     assert len(glob.glob(str(tmp_path / 'junit' / '*.xml'))) == len(files)
     # serial runs agree with the farm's verdicts
     farm = verdicts(out)

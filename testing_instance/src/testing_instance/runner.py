@@ -41,6 +41,7 @@ LAUNCHES = {
     'office': os.path.join(PKG_ROOT, 'simvid', 'launch', 'office.launch'),
 }
 MAX_SLICE = 1.0          # s of sim time between checks when nothing else is due
+SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
 # not recorded unless named in `record:` or used by an expectation (each one makes the
 # renderer draw a frame per message)
 HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/PointCloud2')
@@ -616,7 +617,7 @@ class Runner(object):
         base = motion.quat_from_rpy(*ev.get('rpy', [0, 0, 0])) if 'rpy' in ev else quat
         pts = motion.walk_points(pos, ev['waypoints'], ev.get('speed', 1.2),
                                  ev.get('step_frequency', 1.8), ev.get('bounce', 0.02),
-                                 ev.get('interval', 0.02))
+                                 ev.get('interval', 0.04))
         face = ev.get('heading', True)
         last_yaw = [None]
 
@@ -808,6 +809,7 @@ class Runner(object):
     def _loop(self, step_to):
         end = self.t0 + self.sc.duration
         eps = 1e-9
+        last_settle = self.t
         while True:
             self._check_world()
             while self.agenda and self.agenda[0][0] <= self.t + 5e-4:
@@ -823,8 +825,14 @@ class Runner(object):
             if nxt <= self.t + eps:
                 nxt = self.t + 1e-3
             self.t = step_to(nxt)
-            self._settle()
-            self._subscribe_all()      # topics that appeared late (apps, spawned models)
+            # wait for the slice's messages when a topic condition waits for them, and at
+            # least every SETTLE_EVERY s of sim time (so apps keep up); short motion slices
+            # in between only step (sim-time rule: the same slices settle in every run)
+            if any('topic' in ev['when'] for ev in self.pending_conditions()) or \
+                    self.t - last_settle >= SETTLE_EVERY - 1e-9:
+                self._settle()
+                last_settle = self.t
+                self._subscribe_all()      # topics that appeared late (apps, spawned models)
             self._drain()
             self._check_conditions()
         self._settle()

@@ -428,3 +428,22 @@ def test_transmitters_leave_with_their_model(world):
     assert [t.id for t in world.environment.transmitters] == ['00:00:00:00:00:01']
     world.delete_model('ap')
     assert world.environment.transmitters == []
+
+
+def test_wifi_roaming_hysteresis_and_ssid(world):
+    world.add_model(ap('ap1', (0, 0, 30), '00:00:00:00:00:01'))
+    world.add_model(ap('ap2', (10, 0, 30), '00:00:00:00:00:02'))
+    w = wifi_at(world, (4.0, 0, 30))            # nearer ap1 (the phone floats: gravity off)
+    world.step(1001)
+    assert w.last_link.bssid == '00:00:00:00:00:01'
+    world.set_state('mobile_device', Pose((5.5, 0, 30)))   # ap2 now 1.6 dB stronger: stay
+    world.step(1000)
+    assert w.last_msg.access_points[0].bssid == '00:00:00:00:00:02'
+    assert w.last_link.bssid == '00:00:00:00:00:01'
+    world.set_state('mobile_device', Pose((7.5, 0, 30)))   # 9.5 dB stronger: roam
+    world.step(1000)
+    assert w.last_link.bssid == '00:00:00:00:00:02'
+    w.p.ssid = 'other'                                      # a network nobody offers
+    world.step(1000)
+    assert not w.last_link.connected and w.last_link.enabled
+    assert len(w.last_msg.access_points) == 2

@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from simvid.model import Collision, Geometry, Inertial, Link, Model
+from simvid.model import Collision, Geometry, Link, Model
 from simvid.raycast import RayCaster
 from simvid.sdf import parse_sdf_model
 from simvid.transforms import Pose

@@ -21,9 +21,7 @@ current one falls below the sensitivity; link speed from the 802.11 rate table.
 """
 import hashlib
 import logging
-import math
 
-import numpy as np
 
 from simvid.plugins import register
 from simvid.plugins.params import Param

@@ -108,8 +108,8 @@ class Gps(Sensor):
         Param('referenceAltitude', float, None, aliases=('reference_altitude',), unit='m',
               doc='altitude of the world origin (default: the world elevation)'),
         Param('referenceHeading', float, None, aliases=('reference_heading',), unit='deg',
-              doc='hector: heading of the world x axis, clockwise from north (default: '
-                  "the world's north_alpha)"),
+              doc='hector: angle of north counter-clockwise from the world x axis, like '
+                  "north_alpha (default: the world's north_alpha)"),
         Param('velocityTopicName', str, 'fix_velocity', aliases=('velocity_topic',)),
         Param('nmeaTopicName', str, 'nmea_sentence', aliases=('nmea_topic',)),
         Param('coldStartTime', float, 30.0, aliases=('cold_start_time', 'coldTTFF'), unit='s',
@@ -157,10 +157,8 @@ class Gps(Sensor):
             e.set('latitude', lat0 if lat0 is not None else self.env.get('latitude'))
             e.set('longitude', lon0 if lon0 is not None else self.env.get('longitude'))
             e.set('elevation', self.env.get('elevation'))
-            if p.referenceHeading is not None:
-                e.set('heading', p.referenceHeading)
-            else:
-                e.set('north_alpha', self.env.get('north_alpha'))
+            e.set('north_alpha', self.env.get('north_alpha') if p.referenceHeading is None
+                  else p.referenceHeading)
             self.origin_env = e
         self._reset_receiver()
 

@@ -6,7 +6,8 @@ world's location, or the world file's magnitude/inclination/declination; horizon
 towards magnetic north = true north turned east by the declination, north at ``north_alpha``
 from the world x axis) in the report frame (Android's device frame on the phone), in tesla.
 The plugin's own hector parameters ``magnitude`` (T), ``declination``, ``inclination`` (deg)
-and ``referenceHeading`` (deg, heading of the world x axis clockwise from north) override
+and ``referenceHeading`` (deg, north counter-clockwise from the world x axis as in
+hector's formula, i.e. the world's ``north_alpha``) override
 the world's values one by one. Error model: hector's ``offset`` (the hard-iron offset, T,
 one number or three), ``drift``, ``driftFrequency``, ``gaussianNoise`` (default 0.5 uT per
 axis, the Android CDD 7.3.2 figure), ``scaleError`` (soft iron, per axis).
@@ -52,8 +53,8 @@ class Magnetometer(Sensor):
               doc="dip below the horizon (default the world's)"),
         Param('referenceHeading', float, None, aliases=('reference_heading',), unit='deg',
               check=(-360.0, 360.0),
-              doc="heading of the world x axis clockwise from north (default from the "
-                  "world's north_alpha: 90 - north_alpha)"),
+              doc="hector: angle of north counter-clockwise from the world x axis, like "
+                  "north_alpha (default the world's north_alpha)"),
     ]
 
     def setup(self):
@@ -72,7 +73,7 @@ class Magnetometer(Sensor):
         p = self.p
         f, inc, dec = env.magnetic_elements()
         alpha = env.get('north_alpha') if p.referenceHeading is None \
-            else 90.0 - p.referenceHeading
+            else p.referenceHeading
         return field_vector(f if p.magnitude is None else p.magnitude,
                             inc if p.inclination is None else p.inclination,
                             dec if p.declination is None else p.declination, alpha)

@@ -32,9 +32,14 @@ PUBLISHER = textwrap.dedent('''
         gate.wait(10)
         got_slow.append(int(m.data[0]))
     sub2 = rospy.Subscriber('/probe_slow', Image, slow, queue_size=1)
+    # inline_local (sim_world's /clock): the callback runs in the publishing thread
+    pub3 = fastpub.publisher('/probe_inline', Image, queue_size=10, inline_local=True)
+    inline_threads = []
+    sub3 = rospy.Subscriber('/probe_inline', Image,
+                            lambda m: inline_threads.append(threading.current_thread().name))
     deadline = time.time() + 30
-    while (pub.get_num_connections() < 2 or pub2.get_num_connections() < 1) \\
-            and time.time() < deadline:
+    while (pub.get_num_connections() < 2 or pub2.get_num_connections() < 1
+           or pub3.get_num_connections() < 1) and time.time() < deadline:
         time.sleep(0.05)
     conns_before = pub.get_num_connections()
     for i in range(40):
@@ -43,6 +48,7 @@ PUBLISHER = textwrap.dedent('''
         sent.append(m)
         pub.publish(m)
         pub2.publish(m)
+        pub3.publish(m)
         time.sleep(0.01)
     deadline = time.time() + 10
     while len(got) < 40 and time.time() < deadline:
@@ -57,7 +63,9 @@ PUBLISHER = textwrap.dedent('''
         time.sleep(0.2)
     print(json.dumps(dict(conns_before=conns_before, local=len(got), same_objects=same,
                           order=[m.header.frame_id for m in got] == ['f%%d' %% i for i in range(40)],
-                          slow=got_slow, conns_after=pub.get_num_connections())), flush=True)
+                          slow=got_slow, conns_after=pub.get_num_connections(),
+                          inline=inline_threads, me=threading.current_thread().name)),
+          flush=True)
     time.sleep(2.0)
 ''')
 
@@ -134,5 +142,6 @@ def test_local_objects_remote_bytes_and_cleanup(roscore):
     # message, later ones replaced each other; it got the first and the newest
     assert res['slow'][0] == 0 and res['slow'][-1] == 39 and len(res['slow']) < 10, res['slow']
     assert res['conns_after'] == 1                  # the unregistered local one was dropped
+    assert res['inline'] == [res['me']] * 40        # inline_local: in the publishing thread
     got = json.loads(rout.strip().splitlines()[-1])
     assert got == [['f%d' % i, [i, 1, 2, 3]] for i in range(40)], rerr[-2000:]

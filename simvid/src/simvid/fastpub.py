@@ -79,8 +79,9 @@ class _LocalDelivery(object):
     as rospy runs callbacks in a receive thread. The subscriber's queue_size holds: the
     oldest messages are dropped when it is full."""
 
-    def __init__(self, topic):
+    def __init__(self, topic, inline=False):
         self.topic = topic
+        self.inline = inline
         self.cond = threading.Condition(threading.Lock())
         self.queue = []
         self.thread = None
@@ -89,6 +90,9 @@ class _LocalDelivery(object):
     def put(self, msg):
         sub = _subscriber_impl(self.topic)
         if sub is None:
+            return
+        if self.inline:
+            self._deliver(sub, (msg,))
             return
         qs = sub.queue_size or 0
         with self.cond:
@@ -111,19 +115,24 @@ class _LocalDelivery(object):
                         return
                 msgs, self.queue = self.queue, []
             sub = _subscriber_impl(self.topic)
-            if sub is None:
-                continue
-            for msg in msgs:
-                for cb, cb_args in sub.callbacks:
-                    sub._invoke_callback(msg, cb, cb_args)
-                self.delivered += 1
+            if sub is not None:
+                self._deliver(sub, msgs)
+
+    def _deliver(self, sub, msgs):
+        for msg in msgs:
+            for cb, cb_args in sub.callbacks:
+                sub._invoke_callback(msg, cb, cb_args)
+            self.delivered += 1
 
 
-def no_yield(pub):
+def no_yield(pub, inline_local=False):
     """Make ``pub`` (a rospy.Publisher created with a queue_size) queue its messages
     through NoYieldConnection for every remote subscriber that connects from now on, and
     hand messages to subscribers in this same node as objects (no serialization, no
-    socket; a latched topic keeps rospy's path). Returns pub. A topic whose publisher
+    socket; a latched topic keeps rospy's path). With ``inline_local`` those subscribers'
+    callbacks run in the publishing thread itself (for trivial callbacks on frequent
+    messages, such as rospy's own /clock subscriber in sim_world: waking a delivery thread
+    per message would cost more than the callback). Returns pub. A topic whose publisher
     implementation already has connections, or was created without a queue, is left as
     it is."""
     import rospy
@@ -133,7 +142,7 @@ def no_yield(pub):
         return pub
     orig_add = impl.add_connection
     topic = impl.resolved_name
-    local = _LocalDelivery(topic) if not impl.is_latch else None
+    local = _LocalDelivery(topic, inline_local) if not impl.is_latch else None
 
     def add_connection(c):
         if local is not None and getattr(c, 'endpoint_id', None) == rospy.get_caller_id():
@@ -159,8 +168,9 @@ def no_yield(pub):
     return pub
 
 
-def publisher(topic, msg_type, queue_size=10, **kw):
+def publisher(topic, msg_type, queue_size=10, inline_local=False, **kw):
     """rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw) passed through
     :func:`no_yield`."""
     import rospy
-    return no_yield(rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw))
+    return no_yield(rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw),
+                    inline_local=inline_local)

@@ -81,8 +81,9 @@ class GazeboRosApi(object):
         self._last_tf_stamp = None
         self._static_tf = {}
         # /clock goes out before every plugin tick: queued without rospy's per-message GIL
-        # yield (simvid.fastpub), which cost the world thread more than the message itself
-        self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10)
+        # yield (simvid.fastpub), which cost the world thread more than the message itself;
+        # this node's own /clock subscriber (use_sim_time) is called directly
+        self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10, inline_local=True)
         self.states_pub = rospy.Publisher('/gazebo/model_states', ModelStates, queue_size=1)
         self.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
         self.tf_static_pub = rospy.Publisher('/tf_static', TFMessage, queue_size=100, latch=True)

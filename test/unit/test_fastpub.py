@@ -35,9 +35,9 @@ class FakeTransport(object):
         return True
 
 
-def test_no_yield_connection_queues_drops_oldest_and_never_sleeps(monkeypatch):
+def test_no_yield_connection_yields_only_when_the_writer_falls_behind(monkeypatch):
     t = FakeTransport()
-    c = fastpub.NoYieldConnection(t, 3)
+    c = fastpub.NoYieldConnection(t, 10)
     try:
         c.write_data(b'first')                  # taken by the writer thread, which blocks
         deadline = time.time() + 5
@@ -45,21 +45,24 @@ def test_no_yield_connection_queues_drops_oldest_and_never_sleeps(monkeypatch):
             time.sleep(0.001)
         slept = []
         monkeypatch.setattr(time, 'sleep', lambda s: slept.append(s))
-        for i in range(6):
+        for i in range(5):
             assert c.write_data(b'm%d' % i) is True
-        assert not slept                        # rospy's QueuedConnection sleeps here
-        assert c._queue == [b'm3', b'm4', b'm5']   # queue 3: the oldest were dropped
+        assert not slept                        # rospy's QueuedConnection sleeps every time
+        for i in range(5, 12):                  # the writer is stuck: half the queue waits
+            c.write_data(b'm%d' % i)
+        assert len(slept) == 7                  # ... so it yields like rospy
+        assert c.dropped == 2 and c._queue == [b'm%d' % i for i in range(2, 12)]
         assert c.endpoint_id == '/someone'      # everything else is the transport's
     finally:
         monkeypatch.undo()
         t.release.set()
         deadline = time.time() + 5
-        while len(t.got) < 4 and time.time() < deadline:
+        while len(t.got) < 11 and time.time() < deadline:
             time.sleep(0.01)
         t.done = True
         with c._lock:
             c._cond_data_available.notify()
-    assert t.got == [b'first', b'm3', b'm4', b'm5']
+    assert t.got == [b'first'] + [b'm%d' % i for i in range(2, 12)]
 
 
 def test_writer_error_is_raised_on_the_next_write():

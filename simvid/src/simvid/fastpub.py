@@ -17,6 +17,7 @@ with rospy's own queue.
 """
 import logging
 import threading
+import time
 
 __all__ = ['NoYieldConnection', 'no_yield', 'publisher']
 
@@ -29,7 +30,11 @@ except ImportError:  # pragma: no cover
 
 
 class NoYieldConnection(_Queued):
-    """rospy's QueuedConnection without the ``time.sleep(0)`` after each message."""
+    """rospy's QueuedConnection without the ``time.sleep(0)`` after each message while the
+    writer thread keeps up; once half the queue is waiting (the writer is starved of the
+    GIL) it yields like rospy, so messages are not dropped just because the publishing
+    thread never lets go. ``dropped`` counts the messages the full queue lost."""
+    dropped = 0
 
     def write_data(self, data):
         with self._lock:
@@ -38,8 +43,12 @@ class NoYieldConnection(_Queued):
                 raise error
             if self._queue_size > 0 and len(self._queue) >= self._queue_size:
                 del self._queue[0]
+                self.dropped += 1
             self._queue.append(data)
             self._cond_data_available.notify()
+            behind = len(self._queue) > max(1, self._queue_size // 2)
+        if behind:
+            time.sleep(0)
         return True
 
 

@@ -427,7 +427,7 @@ class Runner(object):
             if self.bag is not None:
                 self.bag.write(topic, msg, self.rospy.Time.from_sec(max(t, 1e-9)))
 
-    def _settle(self, quiet=0.03, longest=3.0):
+    def _settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
         t0 = time.monotonic()
@@ -810,6 +810,9 @@ class Runner(object):
         end = self.t0 + self.sc.duration
         eps = 1e-9
         last_settle = self.t
+        # apps answer asynchronously: with apps, wait for them every slice, so that their
+        # outputs are timed to within a slice
+        settle_every = self.sc.slice if self.sc.apps else SETTLE_EVERY
         while True:
             self._check_world()
             while self.agenda and self.agenda[0][0] <= self.t + 5e-4:
@@ -817,7 +820,7 @@ class Runner(object):
                 fn(self.t)
             if self.t >= end - 5e-4:
                 break
-            nxt = min(end, self.t + MAX_SLICE)
+            nxt = min(end, self.t + (self.sc.slice if self.sc.apps else MAX_SLICE))
             if self.agenda:
                 nxt = min(nxt, self.agenda[0][0])
             if self.pending_conditions():
@@ -826,10 +829,10 @@ class Runner(object):
                 nxt = self.t + 1e-3
             self.t = step_to(nxt)
             # wait for the slice's messages when a topic condition waits for them, and at
-            # least every SETTLE_EVERY s of sim time (so apps keep up); short motion slices
+            # least every settle_every s of sim time (so apps keep up); short motion slices
             # in between only step (sim-time rule: the same slices settle in every run)
             if any('topic' in ev['when'] for ev in self.pending_conditions()) or \
-                    self.t - last_settle >= SETTLE_EVERY - 1e-9:
+                    self.t - last_settle >= settle_every - 1e-9:
                 self._settle()
                 last_settle = self.t
                 self._subscribe_all()      # topics that appeared late (apps, spawned models)

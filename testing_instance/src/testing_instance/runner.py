@@ -285,6 +285,33 @@ class Runner(object):
             raise RunError('app(s) %s did not register with the master within 60 s'
                            % ', '.join(n for n, _p in names),
                            sum((_tail(p.log_path) for _n, p in names), []))
+        self._wait_app_connections(m, deadline)
+
+    def _wait_app_connections(self, master, deadline):
+        """Wait until every app's subscriptions to published topics are connected (asked
+        through each node's slave API, getBusInfo), so no app misses the first slice."""
+        from xmlrpc.client import ServerProxy
+        apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
+        while time.monotonic() < deadline:
+            pubs, subs, _srv = master.getSystemState()
+            published = {t for t, _n in pubs}
+            missing = []
+            for node in apps:
+                want = {t for t, ns in subs if node in ns and t in published}
+                if not want:
+                    continue
+                try:
+                    code, _msg, info = ServerProxy(master.lookupNode(node)).getBusInfo(
+                        '/scenario_runner')
+                except Exception:  # noqa: BLE001 - node not answering yet
+                    missing.append(node)
+                    continue
+                have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
+                if want - have:
+                    missing.append(node)
+            if not missing:
+                return
+            time.sleep(0.05)
 
     # -- ROS side --------------------------------------------------------------------------
     def _init_ros(self):

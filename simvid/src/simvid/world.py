@@ -92,6 +92,7 @@ class World(object):
         self.ambient = np.array([0.4, 0.4, 0.4, 1.0])
         self.background = np.array([0.7, 0.7, 0.75, 1.0])
         self.steps = 0
+        self.pass_states = None           # see _update_plugins
         self.sim_time = 0.0
         self._initial = {}                # model name -> Pose at spawn (reset_world)
         self._renderer = None
@@ -288,6 +289,8 @@ class World(object):
             pose = fpose * pose
             lin, ang = fpose.rotate(lin), fpose.rotate(ang)
         model = self.models[name]
+        if self.pass_states:
+            self.pass_states.clear()
         if model.static:
             model.pose = pose
             self.physics.set_model_pose(name, pose)
@@ -343,15 +346,21 @@ class World(object):
             for cb in self.before_plugin_updates:
                 cb(t)
             self.sync_renderer()
-            for p in due:
-                try:
-                    p.update(t)
-                except Exception as e:  # noqa: BLE001 - one bad plugin must not stop the world
-                    key = (p.model.name, p.spec.filename)
-                    if not getattr(p, '_failed_once', False):
-                        p._failed_once = True
-                        self.log.error('plugin %s of model %s failed at t=%.3f: %s: %s', key[1],
-                                       key[0], t, type(e).__name__, e)
+            # link states read during this pass, shared by the sensors on the same link
+            # (Sensor.state); a teleport during the pass clears it, nothing outlives it
+            self.pass_states = {}
+            try:
+                for p in due:
+                    try:
+                        p.update(t)
+                    except Exception as e:  # noqa: BLE001 - one bad plugin must not stop the world
+                        key = (p.model.name, p.spec.filename)
+                        if not getattr(p, '_failed_once', False):
+                            p._failed_once = True
+                            self.log.error('plugin %s of model %s failed at t=%.3f: %s: %s',
+                                           key[1], key[0], t, type(e).__name__, e)
+            finally:
+                self.pass_states = None
         self._reschedule()
 
     def _reschedule(self):

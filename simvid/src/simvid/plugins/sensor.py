@@ -280,7 +280,14 @@ class Sensor(Plugin):
     # -- measurement -----------------------------------------------------------------------------
     def state(self, t=None):
         t = self.world.sim_time if t is None else t
-        body, lin, ang = self.world.entity_state('%s::%s' % (self.model.name, self.body))
+        entity = '%s::%s' % (self.model.name, self.body)
+        cache = getattr(self.world, 'pass_states', None)    # one plugin pass of the world
+        got = cache.get(entity) if cache is not None else None
+        if got is None:
+            got = self.world.entity_state(entity)
+            if cache is not None:
+                cache[entity] = got
+        body, lin, ang = got
         pose = body if self._frame_is_body else body * self.frame_offset
         return SensorState(t, pose, body, lin, ang)
 

@@ -193,10 +193,11 @@ class SimWorldApi(unittest.TestCase):
         # thesis snippet 3.3.2: the phone's IMU; held still (gravity off) it reads +g up
         msg = rospy.wait_for_message('/mobile_device/imu_sensor_data', Imu, timeout=30)
         msg = rospy.wait_for_message('/mobile_device/imu_sensor_data', Imu, timeout=30)
-        self.assertEqual(msg.header.frame_id, 'mobile_base_link')
+        self.assertEqual(msg.header.frame_id, 'mobile_device_frame')   # Android's device frame
         self.assertGreater(msg.header.stamp.to_sec(), 0.0)
-        self.assertAlmostEqual(msg.linear_acceleration.z, 9.81, delta=0.05)
-        self.assertAlmostEqual(msg.angular_velocity.x, 0.0, delta=1e-3)
+        # Android CDD noise: accelerometer sigma 0.05 m/s^2, gyroscope 3.2 mrad/s (5 sigma)
+        self.assertAlmostEqual(msg.linear_acceleration.z, 9.81, delta=0.25)
+        self.assertAlmostEqual(msg.angular_velocity.x, 0.0, delta=0.016)
 
     # -- bad input -----------------------------------------------------------------------
     def assertWorldAlive(self):

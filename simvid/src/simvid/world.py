@@ -189,7 +189,10 @@ class World(object):
                 except Exception as e:  # noqa: BLE001
                     self.log.error('model %s: cannot draw it: %s', m.name, e)
             self._renderer = r
-            self.sync_renderer()
+            # poses are pulled once per render, not pushed on every plugin tick
+            if hasattr(r, 'set_pose_source'):
+                r.set_pose_source(self.link_poses)
+            self.sync_renderer(force=True)
             # let plugins that waited for a GL context (video textures) draw before the
             # first frame is rendered
             for ps in self.plugins.values():
@@ -201,9 +204,12 @@ class World(object):
                                        p.model.name, e)
         return self._renderer
 
-    def sync_renderer(self):
-        """Push every link's current world pose to the renderer."""
+    def sync_renderer(self, force=False):
+        """Push every link's current world pose to the renderer (a renderer that pulls them
+        itself at each render needs nothing, unless ``force``)."""
         if self._renderer is None:
+            return
+        if not force and getattr(self._renderer, '_pose_source', None) is not None:
             return
         for name in self.models:
             self._renderer.set_link_poses(name, self.link_poses(name))

@@ -67,7 +67,27 @@ class Magnetometer(Sensor):
                                                 p.referenceHeading))
 
     def field_world(self):
+        """The world-frame field (T), recomputed only when the environment changes."""
         env = self.env
+        cached = getattr(self, '_field', None)
+        if cached is not None and cached[0] is env:
+            return cached[1]
+        if self._forget not in env.on_change:
+            env.on_change.append(self._forget)
+        f = self._field_world(env)
+        self._field = (env, f)
+        return f
+
+    def _forget(self, name=None, value=None):
+        self._field = None
+
+    def shutdown(self):
+        env = self.env
+        if self._forget in env.on_change:
+            env.on_change.remove(self._forget)
+        Sensor.shutdown(self)
+
+    def _field_world(self, env):
         if not self.own:
             return env.magnetic_field_world()
         p = self.p

@@ -35,9 +35,10 @@ def run(*args, timeout=TIMEOUT):
     return p.returncode, p.stdout
 
 
-def verdicts(text):
-    return {m.group(2): m.group(1) for m in re.finditer(r'^(?:\[[^\]]*\] )?(PASS|FAIL|ERROR) '
-                                                        r'(\w+):', text, re.M)}
+def verdicts(text, prefix=''):
+    """{expectation name: status} of one run's lines (prefix: a farm's '[file] ')."""
+    return {m.group(2): m.group(1) for m in re.finditer(
+        r'^%s(PASS|FAIL|ERROR) (\w+):' % re.escape(prefix), text, re.M)}
 
 
 def bag_messages(path, topics=None):
@@ -90,11 +91,11 @@ def test_examples_farm_and_failure_reports(tmp_path):
                      r"actual '00:1a:2b:3c:4d:02'", out), out
     assert len(glob.glob(str(tmp_path / 'junit' / '*.xml'))) == len(files)
     # serial runs agree with the farm's verdicts
-    farm = verdicts(out)
+    farm = verdicts(out, '[auto_rotate_fails.yaml] ')
+    assert farm['landscape'] == 'FAIL' and farm['portrait'] == 'PASS'
     rc1, out1 = run(os.path.join(EX, 'auto_rotate_fails.yaml'))
     assert rc1 == 1
-    for name, status in verdicts(out1).items():
-        assert farm[name] == status, (name, out1)
+    assert verdicts(out1) == farm, out1
 
 
 def test_same_seed_same_recording_at_any_real_time_factor(tmp_path):

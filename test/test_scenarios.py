@@ -158,3 +158,56 @@ def test_world_dying_mid_scenario_is_an_error_with_its_log(tmp_path):
     assert rc == 2, out
     assert re.search(r'ERROR the world died at sim time [01]\.\d+ s', out), out
     assert 'last lines of the world/app log' in out and 'world_killer' in out, out
+
+
+ACTIONS = """\
+name: every_action
+duration: 3.0
+world: {args: {camera_rate: 1}}
+timeline:
+  - {at: 0.5, action: press_button, button: power, duration: 0.2}
+  - {at: 0.5, action: touch, x: 100, y: 200, duration: 0.1}
+  - {at: 0.5, action: charger, plugged: true}
+  - {at: 0.5, action: radio, radio: wifi, enabled: false}
+  - {at: 0.5, action: show_image, file: %(png)s}
+  - {id: ramp, at: 0.5, action: set_environment, values: {indoor_temperature: 30.0}, ramp: 1.0}
+  - {at: 0.5, action: playback, name: humidity, series: [[0, 20], [0.5, 60], [1.0, 80]]}
+  - {id: drop, at: 1.0, action: fault, sensor: imu_controller, fault: drop}
+  - {at: 2.0, action: fault, sensor: imu_controller, fault: none}
+  - {at: 2.5, action: publish, topic: /probe, type: std_msgs/String, msg: {data: hello}}
+expect:
+  - {name: button, topic: /mobile_device/buttons, field: button, eventually: {equals: power},
+     window: [0.5, 0.6]}
+  - {name: touch, topic: /mobile_device/touch, count: {min: 1}, window: [0.5, 0.7]}
+  - {name: charging, topic: /mobile_device/power_state, field: AC_present,
+     eventually: {gt: 0}, window: [0.5, 1.0]}
+  - {name: not_charging_before, topic: /mobile_device/power_state, field: AC_present,
+     always: {equals: 0}, window: [0.0, 0.45]}
+  - {name: wifi_off, topic: /mobile_device/wifi/link, field: enabled,
+     eventually: {equals: false}, window: [0.5, 2.0]}
+  - {name: warm, topic: /mobile_device/temperature, field: temperature,
+     eventually: {near: 30.0, tol: 0.5}, window: [1.5, 3.0]}
+  - {name: not_warm_before, topic: /mobile_device/temperature, field: temperature,
+     always: {lt: 25.0}, window: [0.0, 0.45]}
+  - {name: humid, topic: /mobile_device/humidity, field: relative_humidity,
+     eventually: {near: 0.8, tol: 0.05}, window: [1.6, 3.0]}
+  - {name: imu_dropped, topic: /mobile_device/imu_sensor_data, count: {equals: 0},
+     window: [1.02, 1.98]}
+  - {name: imu_back, topic: /mobile_device/imu_sensor_data, rate: {near: 100, tol: 1},
+     window: [2.05, 3.0]}
+"""
+
+
+def test_every_action_reaches_the_world(tmp_path):
+    f = tmp_path / 'actions.yaml'
+    f.write_text(ACTIONS % {'png': os.path.join(ROOT, 'simvid', 'worlds', 'media',
+                                                'qr_paper.png')})
+    rc, out = run(f)
+    assert rc == 0, out
+    # a refused action is an ERROR naming the event and the world's answer
+    f.write_text(ACTIONS.replace('sensor: imu_controller, fault: drop',
+                                 'sensor: no_such_sensor, fault: drop') % {'png': 'x.png'})
+    rc, out = run(f)
+    assert rc == 2, out
+    assert "ERROR drop (fault): SetSensorFault: model 'mobile_device' has no sensor " \
+           "'no_such_sensor'" in out, out

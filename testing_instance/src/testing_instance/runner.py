@@ -292,11 +292,23 @@ class Runner(object):
         through each node's slave API, getBusInfo), so no app misses the first slice."""
         from xmlrpc.client import ServerProxy
         apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
+        infra = {'/rosout', '/rosout_agg', '/clock'}
+        t_start = time.monotonic()
+        last_topics = None
         while time.monotonic() < deadline:
             pubs, subs, _srv = master.getSystemState()
             published = {t for t, _n in pubs}
             missing = []
+            topics = {(node, t) for node in apps for t, ns in pubs + subs
+                      if node in ns and t not in infra}
             for node in apps:
+                # an app is set up when it has its own topics (rospy registers /rosout and
+                # /clock at init_node, before the app's code runs; 5 s grace for apps
+                # without topics) and they stopped changing
+                if not any(n == node for n, _t in topics) and \
+                        time.monotonic() - t_start < 5.0:
+                    missing.append(node)
+                    continue
                 want = {t for t, ns in subs if node in ns and t in published}
                 if not want:
                     continue
@@ -309,9 +321,10 @@ class Runner(object):
                 have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
                 if want - have:
                     missing.append(node)
-            if not missing:
+            if not missing and topics == last_topics:
                 return
-            time.sleep(0.05)
+            last_topics = topics
+            time.sleep(0.1)
 
     # -- ROS side --------------------------------------------------------------------------
     def _init_ros(self):

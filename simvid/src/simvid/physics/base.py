@@ -25,6 +25,13 @@ Interface (``PhysicsEngine``; ``simvid.world.World`` uses nothing else)::
                                      # .position (3,) world, .normal (3,) world, pointing
                                      # from the other body into this one (moving this one
                                      # along it separates them), .depth (m, >= 0)
+    engine.apply_wrench(name, force, torque=None, steps=1, key=None)
+                                     # world-frame force (N, at the centre of mass) and
+                                     # torque (N m) during the next ``steps`` steps (None:
+                                     # every step until replaced); (n, 3) rows: one per
+                                     # coming step; a call with the same key replaces the
+                                     # last one, different keys add up
+    engine.clear_wrench(name, key=None)  # drop a model's wrenches (of one key)
     engine.step(n=1)                 # n fixed steps of step_size
     engine.set_gravity(g)
     engine.close()                   # frees the native world (Bullet's client)
@@ -360,6 +367,8 @@ class PhysicsEngine(object):
         self.gravity = check_vector(gravity, 'gravity')
         self._models = {}
         self.pose_version = 0
+        self._wrenches = {}          # model name -> {key: [force, torque, next row, steps left]}
+        self._wrench_seq = 0
 
     # ---- model bookkeeping -------------------------------------------------------------
     def add_model(self, model):
@@ -378,6 +387,66 @@ class PhysicsEngine(object):
         rec = self._get(name)
         self._remove(rec)
         del self._models[name]
+        self._wrenches.pop(name, None)
+
+    # ---- external wrenches (gazebo_ros_force, the vibration motor) ----------------------------
+    def apply_wrench(self, name, force, torque=None, steps=1, key=None):
+        """Apply a world-frame ``force`` (N, at the centre of mass) and ``torque`` (N m) to
+        model ``name`` during each of the next ``steps`` physics steps (None: every step
+        until replaced or cleared, as gazebo_ros_force does with its last message). Either
+        may be an (n, 3) array: row k acts during the k-th coming step (steps = n). A call
+        with the same ``key`` replaces what that key still had queued; wrenches of
+        different keys (and every call without a key) add up. Static models: nothing.
+        Raises KeyError for an unknown model, ValueError for a non-finite value."""
+        rec = self._get(name)
+        f = np.zeros(3) if force is None else np.asarray(force, float)
+        t = np.zeros(3) if torque is None else np.asarray(torque, float)
+        rows = max(len(f) if f.ndim == 2 else 1, len(t) if t.ndim == 2 else 1)
+        for what, v in (('force', f), ('torque', t)):
+            if v.shape not in ((3,), (rows, 3)) or not np.all(np.isfinite(v)):
+                raise ValueError('%s on model %r must be finite 3-vectors (or n x 3 rows), '
+                                 'got %r' % (what, name, v.tolist()))
+        if f.ndim == 2 or t.ndim == 2:
+            steps = rows
+        elif steps is not None:
+            steps = int(steps)
+            if steps < 1:
+                raise ValueError('steps of a wrench on model %r must be >= 1, got %r'
+                                 % (name, steps))
+        if rec.static:
+            return
+        if key is None:
+            self._wrench_seq += 1
+            key = ('_once', self._wrench_seq)
+        self._wrenches.setdefault(name, {})[key] = [f, t, 0, steps]
+
+    def clear_wrench(self, name, key=None):
+        """Drop the wrenches of model ``name`` (only the one of ``key`` when given)."""
+        if key is None:
+            self._wrenches.pop(name, None)
+        else:
+            self._wrenches.get(name, {}).pop(key, None)
+
+    def _take_wrenches(self):
+        """[(record, force, torque)] summed per model for the step about to run; advances
+        the queues (called by a backend once per step, only while there are any)."""
+        out = []
+        for name in list(self._wrenches):
+            queue = self._wrenches[name]
+            f_sum, t_sum = np.zeros(3), np.zeros(3)
+            for key in list(queue):
+                e = queue[key]
+                f, t, i, left = e
+                f_sum += f[i] if f.ndim == 2 else f
+                t_sum += t[i] if t.ndim == 2 else t
+                if left is not None:
+                    e[2], e[3] = i + 1, left - 1
+                    if left <= 1:
+                        del queue[key]
+            if not queue:
+                del self._wrenches[name]
+            out.append((self._models[name], f_sum, t_sum))
+        return out
 
     def has_model(self, name):
         return name in self._models

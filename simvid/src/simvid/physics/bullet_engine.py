@@ -222,13 +222,21 @@ class BulletEngine(PhysicsEngine):
         c = self._c
         step = p.stepSimulation
         forces = self._forced
-        if forces:
+        if forces or self._wrenches:
             getpose, force, frame = p.getBasePositionAndOrientation, p.applyExternalForce, \
                 p.WORLD_FRAME
             for _ in range(int(n)):
                 for bid, f in forces:
                     force(bid, -1, f, getpose(bid, physicsClientId=c)[0], frame,
                           physicsClientId=c)
+                if self._wrenches:
+                    for rec, f, t in self._take_wrenches():
+                        bid = rec.native['body']    # native frame = centre of mass
+                        force(bid, -1, [float(x) for x in f],
+                              getpose(bid, physicsClientId=c)[0], frame, physicsClientId=c)
+                        if np.any(t):
+                            p.applyExternalTorque(bid, -1, [float(x) for x in t], frame,
+                                                  physicsClientId=c)
                 step(physicsClientId=c)
         else:
             for _ in range(int(n)):

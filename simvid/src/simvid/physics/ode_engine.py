@@ -271,6 +271,12 @@ class OdeEngine(PhysicsEngine):
         for _ in range(int(n)):
             if self._dirty:
                 self._collide()
+            if self._wrenches:
+                for rec, f, t in self._take_wrenches():
+                    b = rec.native['body']
+                    b.addForce(tuple(float(x) for x in f))
+                    b.addTorque(tuple(float(x) for x in t))
+                    b.enable()
             world.quickStep(dt)
             self._collide()
         if _RAND_GET is not None:

@@ -361,6 +361,35 @@ class Renderer(object):
             d.face = face
             d.pending = rgb if rgb is not None else False
 
+    def set_link_color(self, model_name, link_name, rgba, lit=None):
+        """Draw every visual of a link in colour ``rgba`` (0..1; 3 or 4 values), unlit
+        (emissive: every camera sees the colour itself, as an LED) with ``lit=False``;
+        ``rgba=None`` gives the link back its material. Applies from the next render; kept
+        while the model exists. Raises ValueError for a colour that is not 3-4 values in
+        0..1, KeyError for an unknown model or link."""
+        if rgba is not None:
+            c = [float(v) for v in rgba]
+            if len(c) == 3:
+                c.append(1.0)
+            if len(c) != 4 or not all(0.0 <= v <= 1.0 for v in c):
+                raise ValueError('link colour must be 3 or 4 numbers in 0..1, got %r'
+                                 % (list(rgba),))
+        with self._lock:
+            its = [it for it in self._items.get(model_name, []) if it.link == link_name]
+            if not its:
+                raise KeyError('model %r has no visual on link %r to colour'
+                               % (model_name, link_name))
+            for it in its:
+                if not hasattr(it, 'material0'):
+                    it.material0 = (it.rgba, it.lit, it.texture_key)
+                if rgba is None:
+                    it.rgba, it.lit, it.texture_key = it.material0
+                else:
+                    it.rgba = tuple(c)
+                    it.lit = it.material0[1] if lit is None else bool(lit)
+                    it.texture_key = None
+                it.transparent = it.rgba[3] < 0.999
+
     # -- textures ---------------------------------------------------------------------------
     def _load_image(self, path):
         if path in self._images:

@@ -1,0 +1,59 @@
+"""Runner pieces that need no ROS master: JUnit XML, field probing, invalid files, shards."""
+import xml.etree.ElementTree as ET
+
+import pytest
+from sensor_msgs.msg import Imu
+
+from testing_instance import cli
+from testing_instance.expect import FieldError, Verdict
+from testing_instance.runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, _probe_field, \
+    run_file, write_junit
+
+
+def test_junit_counts_failures_and_errors(tmp_path):
+    vs = [Verdict('a', True, 'x', 'x', 1.0), Verdict('b', False, 'y', 'z', 2.0),
+          Verdict('c', False, 'w', 'topic /q never appeared', None, error=True)]
+    r = Result('demo', vs)
+    assert r.status == 'ERROR' and r.exit_code == EXIT_ERROR
+    assert Result('d', vs[:2]).exit_code == EXIT_FAIL
+    assert Result('d', vs[:1]).exit_code == EXIT_PASS
+    write_junit(r, str(tmp_path / 'j.xml'))
+    root = ET.parse(str(tmp_path / 'j.xml')).getroot()
+    assert root.tag == 'testsuite' and root.get('name') == 'demo'
+    assert (root.get('tests'), root.get('failures'), root.get('errors')) == ('3', '1', '1')
+    cases = root.findall('testcase')
+    assert [c.get('name') for c in cases] == ['a', 'b', 'c']
+    assert cases[1].find('failure').get('message').startswith('FAIL b: expected y; actual z')
+    assert cases[2].find('error') is not None
+
+
+def test_probe_field_names_the_missing_part():
+    _probe_field(Imu(), 'linear_acceleration.z')
+    _probe_field(Imu(), 'orientation_covariance[3]')
+    with pytest.raises(FieldError) as e:
+        _probe_field(Imu(), 'linear_acceleraton.z')
+    assert "Imu has no field 'linear_acceleraton'" in str(e.value)
+    assert 'linear_acceleration' in str(e.value)
+    with pytest.raises(FieldError):
+        _probe_field(Imu(), 'linear_acceleration.w')
+
+
+def test_invalid_file_is_an_error_before_anything_starts(tmp_path):
+    f = tmp_path / 'x.yaml'
+    f.write_text('duration: -1\n')
+    lines = []
+    r = run_file(str(f), out=lines.append, junit=str(tmp_path / 'j.xml'))
+    assert r.exit_code == EXIT_ERROR and r.status == 'ERROR'
+    assert lines[0].startswith('ERROR scenario file')
+    assert 'x.yaml:1: scenario.duration: expected a number > 0, got -1' in lines[1]
+    assert (tmp_path / 'j.xml').exists()
+
+
+def test_shards_deal_the_sorted_files_round_robin():
+    files = ['e', 'a', 'c', 'b', 'd']
+    assert cli._shard(files, '0/2') == ['a', 'c', 'e']
+    assert cli._shard(files, '1/2') == ['b', 'd']
+    assert sorted(cli._shard(files, '0/3') + cli._shard(files, '1/3') +
+                  cli._shard(files, '2/3')) == sorted(files)
+    with pytest.raises(SystemExit):
+        cli._shard(files, '2/2')

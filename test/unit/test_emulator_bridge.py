@@ -340,3 +340,12 @@ def test_no_auth_when_the_console_does_not_ask(tmp_path):
         assert not c.command('geo fix 181 48 519 8')[0]      # argument check of the server
     finally:
         srv.stop()
+
+
+def test_bridge_connects_before_the_first_value(server, token_file):
+    log = Log()
+    b = Bridge(ConsoleClient('127.0.0.1', server.port, token_file=token_file, timeout=2),
+               info=log, warn=log, error=log)
+    assert b.step() == 0
+    assert b.connects == 1 and server.lines == ['auth s3cretTok3n']
+    assert log.count('connected to the emulator console') == 1

@@ -419,7 +419,7 @@ class Bridge(object):
     def step(self, now=None):
         """Connect if needed and send every due command once. Returns the number sent."""
         now = self.clock() if now is None else now
-        if not self.pending or not self._ensure_connected(now):
+        if not self._ensure_connected(now) or not self.pending:
             return 0
         n = 0
         for kind in self.due(now):
@@ -452,10 +452,10 @@ class Bridge(object):
 
     def next_wakeup(self, now):
         with self._cv:
-            if not self.pending:
-                return None
             if not self.client.connected:
                 return max(now, self._next_try)
+            if not self.pending:
+                return None
             return min(self.last_sent.get(k, -1e18) + self.period for k in self.pending)
 
     def run(self):

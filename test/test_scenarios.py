@@ -211,3 +211,21 @@ def test_every_action_reaches_the_world(tmp_path):
     assert rc == 2, out
     assert "ERROR drop (fault): SetSensorFault: model 'mobile_device' has no sensor " \
            "'no_such_sensor'" in out, out
+
+
+def test_missing_topic_and_field_are_errors_naming_them(tmp_path):
+    f = tmp_path / 'typos.yaml'
+    f.write_text('duration: 0.5\nworld: {args: {camera_rate: 1}}\nexpect:\n'
+                 '  - {name: topic_typo, topic: /mobile_device/imu_sensor_dat, rate: {gt: 1}}\n'
+                 '  - {name: field_typo, topic: /mobile_device/imu_sensor_data,\n'
+                 '     field: linear_acceleraton.z, always: {gt: 0}}\n'
+                 '  - {name: fine, topic: /mobile_device/imu_sensor_data, count: {min: 40}}\n')
+    rc, out = run(f)
+    assert rc == 2, out
+    assert 'ERROR topic_typo: expected Hz of /mobile_device/imu_sensor_dat > 1 in [0.000, ' \
+           '0.500] s; actual topic /mobile_device/imu_sensor_dat never appeared (similar ' \
+           'topics: ' in out, out
+    assert "ERROR field_typo: expected always /mobile_device/imu_sensor_data." \
+           "linear_acceleraton.z > 0 in [0.000, 0.500] s; actual field 'linear_acceleraton.z' " \
+           "does not exist on sensor_msgs/Imu: Imu has no field 'linear_acceleraton'" in out, out
+    assert 'PASS fine:' in out

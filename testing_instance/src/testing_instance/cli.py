@@ -87,7 +87,7 @@ def replay_main(argv=None):
     a = [x for x in argv[1:]]
     if len(a) >= 2 and not a[0].startswith('-') and a[1].endswith('.bag'):
         return main([argv[0], a[0], '--replay', a[1]] + a[2:], prog='replay_scenario')
-    print('usage: replay_scenario FILE BAG [--junit XML] [--real-time-factor R]')
+    print('usage: replay_scenario FILE BAG [--junit XML] [--record BAG2]')
     return EXIT_ERROR
 
 

@@ -349,3 +349,27 @@ def test_bridge_connects_before_the_first_value(server, token_file):
     assert b.step() == 0
     assert b.connects == 1 and server.lines == ['auth s3cretTok3n']
     assert log.count('connected to the emulator console') == 1
+
+
+def test_console_that_always_breaks_is_retried_per_period(token_file):
+    """A console closing every connection at its first command: one attempt (and one
+    warning) per retry period, not a busy loop."""
+    srv = ConsoleTestServer(token_file=token_file).start()
+    log = Log()
+    t = [0.0]
+    b = Bridge(ConsoleClient('127.0.0.1', srv.port, token_file=token_file, timeout=2),
+               retry_period=2.0, info=log, warn=log, error=log, clock=lambda: t[0])
+    try:
+        b.submit('light', 'sensor set light 7')
+        for _ in range(40):          # 4 s
+            srv.close_mid_command(1)
+            b.step()
+            t[0] += 0.1
+        assert srv.connections == 2
+        assert log.count('reconnecting') == 2
+        assert srv.commands('sensor set light') == []
+        srv.close_mid_command(None)   # the console works again: the value goes out
+        b.step(t[0] + 2.0)
+        assert srv.commands('sensor set light') == ['sensor set light 7']
+    finally:
+        srv.stop()

@@ -373,6 +373,7 @@ class Bridge(object):
         self._last_auth_error = None
         self._was_connected = False
         self.connects = 0
+        self._replies = 0       # replies on the current connection
         self._cv = threading.Condition()
         self._stop = False
 
@@ -403,6 +404,7 @@ class Bridge(object):
             self.info('%s; retrying every %g s' % (e, self.retry_period))
             return False
         self._last_auth_error = None
+        self._replies = 0
         self.connects += 1
         self.info('connected to the emulator console at %s:%d%s'
                   % (self.client.host, self.client.port,
@@ -432,8 +434,11 @@ class Bridge(object):
             except ConsoleError as e:
                 self.warn('emulator console at %s:%d: %s during %r; reconnecting'
                           % (self.client.host, self.client.port, e, command))
-                self._next_try = 0.0   # at once; a refused connect then waits retry_period
+                # at once after a working session (a refused connect then waits
+                # retry_period); a console that breaks before any reply: wait retry_period
+                self._next_try = 0.0 if self._replies else now + self.retry_period
                 return n               # the command stays pending: sent again after reconnect
+            self._replies += 1
             with self._cv:
                 if self.pending.get(kind) == command:
                     del self.pending[kind]

@@ -89,9 +89,10 @@ class ConsoleTestServer(object):
         return self.start()
 
     def close_mid_command(self, n=1):
-        """Close the connection on receiving the n-th next command, without a reply."""
+        """Close the connection on receiving the n-th next command (``auth`` not counted),
+        without a reply; None: cancel."""
         with self._lock:
-            self._close_after = int(n)
+            self._close_after = None if n is None else int(n)
 
     # -- records -------------------------------------------------------------------------
     def commands(self, prefix=''):
@@ -152,7 +153,7 @@ class ConsoleTestServer(object):
                 with self._lock:
                     self.lines.append(line)
                     close = False
-                    if self._close_after is not None:
+                    if self._close_after is not None and not line.startswith('auth'):
                         self._close_after -= 1
                         if self._close_after <= 0:
                             self._close_after, close = None, True

@@ -85,26 +85,33 @@ class Waveform(object):
         return self.repeat < 0 and dt >= self.total
 
 
+def _primitive(u, period, amplitude):
+    """G(u) = integral from 0 to u of amplitude(k) x the cos-phase square wave: every whole
+    half period integrates to zero, so G is the triangle of the current half period k
+    (sign + for even k) scaled by its amplitude."""
+    u = np.atleast_1d(np.asarray(u, float))
+    half = period / 2.0
+    k = np.floor(u / half + 1e-9)
+    x = u - k * half
+    tri = np.where(x <= period / 4.0, x, half - x)
+    sign = np.where(k % 2 == 0, 1.0, -1.0)
+    ks, inv = np.unique(k, return_inverse=True)
+    amp = np.array([amplitude(kk * half) for kk in ks])[inv]
+    return amp * sign * tri
+
+
 def square_impulse(u0, u1, period, amplitude):
     """Integral over [u0, u1] (s after the start) of amplitude(k) x the cos-phase square
-    wave of ``period`` (quarter j: + for j % 4 in (0, 3), - otherwise); the amplitude of
-    half period k is ``amplitude(k * period / 2)``."""
-    q = period / 4.0
-    total = 0.0
-    u = u0
-    while u < u1 - 1e-15:
-        j = int(math.floor(u / q + 1e-9))
-        end = min(u1, (j + 1) * q)
-        sign = 1.0 if j % 4 in (0, 3) else -1.0
-        total += sign * amplitude((j // 2) * 2 * q) * (end - u)
-        u = end
-    return total
+    wave of ``period`` (+ for the first quarter, - for the next half, + ...); the amplitude
+    of half period k is ``amplitude(k * period / 2)``."""
+    g = _primitive([u0, u1], period, amplitude)
+    return float(g[1] - g[0])
 
 
 def step_forces(u0, n, dt, period, amplitude):
     """Mean square-wave value (times the amplitude) over each of n steps of dt from u0."""
-    return np.array([square_impulse(u0 + i * dt, u0 + (i + 1) * dt, period, amplitude) / dt
-                     for i in range(n)])
+    g = _primitive(u0 + dt * np.arange(n + 1), period, amplitude)
+    return np.diff(g) / dt
 
 
 @register('libgazebo_ros_vibration.so', 'libvibration.so')

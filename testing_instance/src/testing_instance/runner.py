@@ -40,7 +40,8 @@ PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file_
 LAUNCHES = {
     'office': os.path.join(PKG_ROOT, 'simvid', 'launch', 'office.launch'),
 }
-MAX_SLICE = 1.0          # s of sim time between checks when nothing else is due
+MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
+                         # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
 SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
 # not recorded unless named in `record:` or used by an expectation (each one makes the
 # renderer draw a frame per message)
@@ -333,6 +334,16 @@ class Runner(object):
         import rospy
         rospy.init_node('scenario_runner', disable_signals=True)
         self.rospy = rospy
+
+    def _world_settings(self):
+        """Attached: the seed and real-time factor are the running world's."""
+        import rospy
+        try:
+            seed = rospy.get_param('/sim_world/seed', '')
+            self.seed = int(seed) if str(seed).strip() else self.seed
+            self.rtf = float(rospy.get_param('/sim_world/real_time_factor', self.rtf))
+        except (ValueError, TypeError, OSError):
+            pass
 
     def _services(self):
         import rospy
@@ -810,6 +821,8 @@ class Runner(object):
             self._launch_world()
             self._wait_master(deadline)
         self._init_ros()
+        if self.attach:
+            self._world_settings()
         self._services()
         self._wait_phones(deadline)
 

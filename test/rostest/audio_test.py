@@ -1,0 +1,113 @@
+#!/usr/bin/env python3
+"""rostest: a tone on phone A's speaker heard by phone B's microphone (audio.test)."""
+import time
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from geometry_msgs.msg import Pose, Twist
+
+from mobile_device_sim.msg import AudioData, ModelState
+from mobile_device_sim.srv import GetModelState, SetModelState
+
+A, B = 'mobile_device', 'mobile_device_b'
+FREQ = 1000.0
+SR = 16000
+
+
+def wait_sim(dt, timeout=120):
+    t_end = rospy.get_time() + dt
+    deadline = time.time() + timeout
+    while rospy.get_time() < t_end:
+        assert time.time() < deadline, 'sim time does not move'
+        time.sleep(0.02)
+
+
+class Audio(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('audio_test')
+        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
+        cls.get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
+        cls.set = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
+        deadline = time.time() + 90
+        while time.time() < deadline and not cls.get(B, 'world').success:
+            time.sleep(0.2)
+        assert cls.get(B, 'world').success, 'phone B was not spawned'
+        cls.chunks = []
+        cls.sub = rospy.Subscriber('/%s/microphone/audio' % B, AudioData, cls.chunks.append,
+                                   queue_size=1000)
+        cls.spk = rospy.Publisher('/%s/speaker/audio' % A, AudioData, queue_size=10)
+        deadline = time.time() + 60
+        while time.time() < deadline and (cls.spk.get_num_connections() == 0
+                                          or cls.sub.get_num_connections() == 0):
+            time.sleep(0.1)
+
+    def link_point(self, model, offset):
+        """World position of a point fixed in the model's base link."""
+        s = self.get(model, 'world')
+        self.assertTrue(s.success, s.status_message)
+        q, p = s.pose.orientation, s.pose.position
+        u, w, v = np.array([q.x, q.y, q.z]), q.w, np.asarray(offset, float)
+        rotated = v + 2 * w * np.cross(u, v) + 2 * np.cross(u, np.cross(u, v))
+        return np.array([p.x, p.y, p.z]) + rotated
+
+    def distance(self):
+        # speaker: 0.058 m toward the top, under the front face; microphone: bottom end
+        a = self.link_point(A, (0.058, 0, 0.00444))
+        b = self.link_point(B, (-0.06095, 0, 0))
+        return float(np.linalg.norm(a - b))
+
+    def play_and_hear(self):
+        """Play 0.5 s of tone; return (samples heard during it, peak Hz)."""
+        del self.chunks[:]
+        t = np.arange(SR // 2) / float(SR)
+        m = AudioData(sample_rate=SR, channels=1,
+                      samples=(0.5 * np.sin(2 * np.pi * FREQ * t)).astype(np.float32).tolist())
+        t0 = rospy.get_time()
+        self.spk.publish(m)
+        wait_sim(1.5)
+        chunks = [c for c in list(self.chunks) if c.header.stamp.to_sec() >= t0 - 1e-6]
+        self.assertTrue(chunks, 'no microphone chunks from %s' % B)
+        self.assertTrue(all(c.sample_rate == SR and c.channels == 1 for c in chunks))
+        x = np.concatenate([np.asarray(c.samples, float) for c in chunks])
+        # the tone's 0.5 s: the windows of 0.05 s whose level is above half the loudest
+        win = SR // 20
+        rms = np.array([np.sqrt(np.mean(x[i:i + win] ** 2))
+                        for i in range(0, len(x) - win + 1, win)])
+        self.assertGreater(rms.max(), 1e-4, 'phone B heard nothing')
+        on = rms > 0.5 * rms.max()
+        self.assertTrue(7 <= on.sum() <= 11, 'tone length in windows: %d' % on.sum())
+        tone = np.concatenate([x[i * win:(i + 1) * win] for i in np.nonzero(on)[0]])
+        n = 1 << 17
+        spec = np.abs(np.fft.rfft(tone * np.hanning(len(tone)), n))
+        return float(np.median(rms[on])), np.argmax(spec) * SR / float(n)
+
+    def move_b(self, dy):
+        s = self.get(B, 'world')
+        p = s.pose
+        p.position.y += dy
+        r = self.set(ModelState(model_name=B, pose=p, twist=Twist(), reference_frame='world'))
+        self.assertTrue(r.success, r.status_message)
+        wait_sim(1.0)
+
+    def test_tone_arrives_with_frequency_and_level_falling_with_distance(self):
+        wait_sim(1.0)                     # both phones at rest
+        d1 = self.distance()
+        level1, f1 = self.play_and_hear()
+        self.move_b(1.0)
+        d2 = self.distance()
+        level2, f2 = self.play_and_hear()
+        rospy.loginfo('d %.3f m: level %.4f, %.1f Hz; d %.3f m: level %.4f, %.1f Hz',
+                      d1, level1, f1, d2, level2, f2)
+        self.assertGreater(d2, d1 + 0.5)
+        self.assertAlmostEqual(f1, FREQ, delta=3.0)
+        self.assertAlmostEqual(f2, FREQ, delta=3.0)
+        self.assertLess(level2, level1)
+        # 1/r: the level ratio is the inverse distance ratio
+        self.assertAlmostEqual(level1 / level2, d2 / d1, delta=0.1 * d2 / d1)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('mobile_device_sim', 'audio', Audio)

@@ -140,6 +140,13 @@ class _DynTex(object):
         self.active = False
 
 
+class _Projection(object):
+    def __init__(self):
+        self.model = self.link = None
+        self.fov, self.near, self.far, self.brightness = 0.785, 0.05, 10.0, 1.0
+        self.on, self.pending, self.tex, self.shape = False, None, None, None
+
+
 class Renderer(object):
     """Visuals of the world's models, drawn into offscreen images (see module doc)."""
 
@@ -154,6 +161,7 @@ class Renderer(object):
         self._meshes = {}              # (mesh file, scale) -> MeshData (read once)
         self._gl_textures = {}         # texture key -> GL id
         self._dyn = {}                 # (model, link) -> _DynTex
+        self._projectors = {}          # key -> _Projection (set_projector; simsensors.projector)
         self._lights = None
         self._ambient = DEFAULT_AMBIENT
         self._lock = threading.RLock()
@@ -390,6 +398,130 @@ class Renderer(object):
                     it.texture_key = None
                 it.transparent = it.rgba[3] < 0.999
 
+    # -- projectors (simsensors.projector) -------------------------------------------------------
+    def set_projector(self, key, model_name, link_name, fov, near, far, rgb, brightness=1.0):
+        """Project image ``rgb`` (HxWx3 uint8, row 0 = top; None = off) from the link (looking
+        along its +x, z up, like a camera) with horizontal field of view ``fov`` (rad) between
+        the clip distances, onto every surface in the frustum: added to the lit colour as a
+        point light of ``brightness`` at 1 m (1/d^2, cosine falloff) modulated by the image
+        and the surface's colour. No occlusion: it also lands behind what is in front."""
+        if rgb is not None:
+            rgb = np.asarray(rgb)
+            if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
+                raise ValueError('projector image must be HxWx3 uint8, got %s %s'
+                                 % (rgb.dtype, rgb.shape))
+            rgb = np.ascontiguousarray(rgb).copy()
+        with self._lock:
+            pr = self._projectors.get(key)
+            if pr is None:
+                pr = self._projectors[key] = _Projection()
+            pr.model, pr.link = model_name, link_name
+            pr.fov, pr.near, pr.far, pr.brightness = float(fov), float(near), float(far), \
+                float(brightness)
+            if rgb is None:
+                pr.on = False
+            else:
+                pr.on, pr.pending = True, rgb
+
+    def remove_projector(self, key):
+        with self._lock:
+            pr = self._projectors.pop(key, None)
+            if pr is not None and pr.tex is not None:
+                self._trash.append(('tex', pr.tex))
+
+    def _draw_projections(self, V):
+        """Additive pass per projector: eye-linear texgen in world coordinates, the texture
+        matrix = bias * projection * view of the projector, clip planes at its near and far
+        distance, one point light at its position (the only light)."""
+        from OpenGL import GL
+        for pr in list(self._projectors.values()):
+            poses = self._link_poses.get(pr.model)
+            if not pr.on or poses is None or pr.link not in poses:
+                continue
+            if pr.pending is not None:
+                if pr.tex is None:
+                    pr.tex = GL.glGenTextures(1)
+                img = pr.pending
+                pr.shape = img.shape
+                _upload_texture(pr.tex, img, mipmap=False)
+                GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_BORDER)
+                GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_BORDER)
+                GL.glTexParameterfv(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_BORDER_COLOR, (0, 0, 0, 0))
+                pr.pending = None
+            if pr.tex is None:
+                continue
+            M = poses[pr.link]
+            M = M.matrix() if hasattr(M, 'matrix') else np.asarray(M)
+            h, w = pr.shape[:2]
+            view = CameraView(w, h, hfov=pr.fov, near=pr.near, far=pr.far)
+            Vp = EYE_FROM_LINK.dot(np.linalg.inv(M))
+            Pp = view.projection_matrix(flip_y=True)
+            B = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+            pos, fwd = M[:3, 3], M[:3, 0] / np.linalg.norm(M[:3, 0])
+            GL.glMatrixMode(GL.GL_TEXTURE)
+            GL.glLoadMatrixd(B.dot(Pp).dot(Vp).T.ravel())
+            GL.glMatrixMode(GL.GL_MODELVIEW)
+            GL.glLoadMatrixd(V.T.ravel())          # planes and light given in world frame
+            for coord, gen, row in ((GL.GL_S, GL.GL_TEXTURE_GEN_S, (1, 0, 0, 0)),
+                                    (GL.GL_T, GL.GL_TEXTURE_GEN_T, (0, 1, 0, 0)),
+                                    (GL.GL_R, GL.GL_TEXTURE_GEN_R, (0, 0, 1, 0)),
+                                    (GL.GL_Q, GL.GL_TEXTURE_GEN_Q, (0, 0, 0, 1))):
+                GL.glTexGeni(coord, GL.GL_TEXTURE_GEN_MODE, GL.GL_EYE_LINEAR)
+                GL.glTexGenfv(coord, GL.GL_EYE_PLANE, row)
+                GL.glEnable(gen)
+            GL.glClipPlane(GL.GL_CLIP_PLANE0, tuple(np.r_[fwd, -fwd.dot(pos) - pr.near]))
+            GL.glClipPlane(GL.GL_CLIP_PLANE1, tuple(np.r_[-fwd, fwd.dot(pos) + pr.far]))
+            GL.glEnable(GL.GL_CLIP_PLANE0)
+            GL.glEnable(GL.GL_CLIP_PLANE1)
+            GL.glLightModelfv(GL.GL_LIGHT_MODEL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
+            GL.glLightModeli(GL.GL_LIGHT_MODEL_TWO_SIDE, GL.GL_FALSE)
+            for i in range(1, 8):
+                GL.glDisable(GL.GL_LIGHT0 + i)
+            b = pr.brightness
+            GL.glEnable(GL.GL_LIGHT0)
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_DIFFUSE, (b, b, b, 1.0))
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_SPECULAR, (0.0, 0.0, 0.0, 1.0))
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_POSITION, (pos[0], pos[1], pos[2], 1.0))
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_SPOT_CUTOFF, 180.0)
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_CONSTANT_ATTENUATION, 1e-3)
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_LINEAR_ATTENUATION, 0.0)
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_QUADRATIC_ATTENUATION, 1.0)
+            GL.glEnable(GL.GL_LIGHTING)
+            GL.glEnable(GL.GL_TEXTURE_2D)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, pr.tex)
+            GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_MODULATE)
+            GL.glEnable(GL.GL_BLEND)
+            GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
+            GL.glDepthMask(GL.GL_FALSE)
+            GL.glDepthFunc(GL.GL_LEQUAL)
+            GL.glDisable(GL.GL_CULL_FACE)
+            for items in self._items.values():
+                for it in items:
+                    if it.transparent or not it.lit:
+                        continue
+                    if it.vao is None:
+                        self._make_vao(it)
+                    GL.glBindVertexArray(it.vao)
+                    GL.glLoadMatrixd(V.dot(it.world).T.ravel())
+                    c = it.rgba if not it.own_parts else (1.0, 1.0, 1.0, 1.0)
+                    GL.glColor4f(c[0], c[1], c[2], 1.0)
+                    GL.glDrawArrays(GL.GL_TRIANGLES, 0, it.mesh.count)
+            GL.glBindVertexArray(0)
+            for gen in (GL.GL_TEXTURE_GEN_S, GL.GL_TEXTURE_GEN_T, GL.GL_TEXTURE_GEN_R,
+                        GL.GL_TEXTURE_GEN_Q):
+                GL.glDisable(gen)
+            GL.glMatrixMode(GL.GL_TEXTURE)
+            GL.glLoadIdentity()
+            GL.glMatrixMode(GL.GL_MODELVIEW)
+            GL.glDisable(GL.GL_CLIP_PLANE0)
+            GL.glDisable(GL.GL_CLIP_PLANE1)
+            GL.glDisable(GL.GL_BLEND)
+            GL.glDepthMask(GL.GL_TRUE)
+            GL.glDisable(GL.GL_TEXTURE_2D)
+            GL.glDisable(GL.GL_LIGHTING)
+        self._state = (None, None, None)
+
     # -- textures ---------------------------------------------------------------------------
     def _load_image(self, path):
         if path in self._images:
@@ -448,6 +580,8 @@ class Renderer(object):
             self._setup_lights()
             self._state = (None, None, None)
             self._draw_all(V)
+            if self._projectors:
+                self._draw_projections(V)
             # flipped projection: row 0 is the top. RGBA readback is several times faster
             # than RGB on llvmpipe; dropping alpha in OpenCV costs less than the difference.
             rgba = self.ctx.read_rgba_raw(w, h, self._rgba_buffer(w, h))

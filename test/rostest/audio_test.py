@@ -108,6 +108,25 @@ class Audio(unittest.TestCase):
         # 1/r: the level ratio is the inverse distance ratio
         self.assertAlmostEqual(level1 / level2, d2 / d1, delta=0.1 * d2 / d1)
 
+    def test_audio_to_wav_writes_the_microphone(self):
+        import os
+        import subprocess
+        import tempfile
+        import soundfile
+        path = os.path.join(tempfile.mkdtemp(), 'mic_b.wav')
+        proc = subprocess.Popen(['rosrun', 'mobile_device_sim', 'audio_to_wav',
+                                 '_topic:=/%s/microphone/audio' % B, '_file:=' + path,
+                                 '_duration:=1.0', '__name:=audio_to_wav_test'])
+        try:
+            self.assertEqual(proc.wait(timeout=120), 0)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        info = soundfile.info(path)
+        self.assertEqual((info.samplerate, info.channels), (SR, 1))
+        self.assertGreaterEqual(info.frames, SR)
+        self.assertLess(info.frames, SR + SR // 5)
+
 
 if __name__ == '__main__':
     rostest.rosrun('mobile_device_sim', 'audio', Audio)

@@ -132,3 +132,28 @@ def test_bad_input_one_line_keeps_last_state(tmp_path, world, caplog):
     assert src in scene_of(world).sources
     world.delete_model('src')
     assert src not in scene_of(world).sources
+
+
+def test_sound_source_in_a_world_file_with_a_looped_ogg(tmp_path):
+    import soundfile
+    t = np.arange(8000) / 16000.0
+    ogg = tmp_path / 'hum.ogg'
+    soundfile.write(str(ogg), 0.5 * np.sin(2 * np.pi * 500 * t), 16000, format='OGG')
+    world_file = tmp_path / 'w.world'
+    world_file.write_text('''<?xml version="1.0"?><sdf version="1.6"><world name="w">
+      <model name="radio"><static>true</static><pose>0 0 1 0 0 0</pose>
+        <link name="body"><visual name="v"><geometry><box><size>0.1 0.1 0.1</size></box>
+        </geometry></visual></link>
+        <plugin name="radio" filename="libgazebo_ros_audio.so">
+          <ogg>%s</ogg><loop>true</loop><pitch>2.0</pitch><gain>0.5</gain></plugin>
+      </model></world></sdf>''' % ogg)
+    w = World(physics='ode', seed=1, gravity=(0, 0, 0))
+    try:
+        w.load_world_file(str(world_file))
+        mic = _mic(w, 'mic', (2, 0, 1))
+        w.step(1500)                                    # 1.5 s: the 0.5 s file loops
+        x = mic.samples_since(0.3)
+        assert _peak_hz(x) == pytest.approx(1000, abs=3)          # pitch 2: 500 Hz -> 1 kHz
+        assert _rms(x[-4000:]) == pytest.approx(0.5 * 0.5 / 2 / np.sqrt(2), rel=0.05)
+    finally:
+        w.shutdown()

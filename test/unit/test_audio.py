@@ -157,3 +157,19 @@ def test_sound_source_in_a_world_file_with_a_looped_ogg(tmp_path):
         assert _rms(x[-4000:]) == pytest.approx(0.5 * 0.5 / 2 / np.sqrt(2), rel=0.05)
     finally:
         w.shutdown()
+
+
+def test_mp3_of_the_thesis_snippet(tmp_path, world):
+    """Code snippet 3.3.5: <pitch>1.0</pitch> <gain>1.0</gain> <loop>false</loop>
+    <mp3>test.mp3</mp3>: the file plays once."""
+    import soundfile
+    t = np.arange(8000) / 16000.0
+    mp3 = tmp_path / 'test.mp3'
+    soundfile.write(str(mp3), 0.4 * np.sin(2 * np.pi * 440 * t), 16000, format='MP3')
+    _source(world, 'src', (0, 0, 1), mp3=str(mp3), pitch=1.0, gain=1.0, loop='false')
+    mic = _mic(world, 'mic', (1, 0, 1))
+    world.step(1000)
+    x = mic.samples_since(0.0)
+    assert _peak_hz(x[:8000]) == pytest.approx(440, abs=3)
+    assert _rms(x[1000:7000]) == pytest.approx(0.4 / np.sqrt(2), rel=0.1)
+    assert _rms(x[9000:]) < 1e-3                    # played once: silent after 0.5 s

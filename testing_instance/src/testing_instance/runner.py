@@ -184,6 +184,7 @@ class Runner(object):
         self.pubs = {}
         self.cond_hits = {}
         self.t = 0.0
+        self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -466,6 +467,8 @@ class Runner(object):
 
     def _cb(self, msg, topic):
         t = self._stamp_of(msg)
+        if self.debug and not hasattr(msg, 'header'):
+            self.say('  debug: %s at %.3f' % (topic, t))
         with self.lock:
             self.seq += 1
             self.buffer.append((t, self.seq, topic, msg))
@@ -820,6 +823,11 @@ class Runner(object):
                 self.port = free_port()
             self._launch_world()
             self._wait_master(deadline)
+            # rospy reads /use_sim_time at init_node: set it before (the launch file sets
+            # it too, maybe later); else this node would time messages by the wall clock
+            import rosgraph
+            rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI']) \
+                .setParam('/use_sim_time', True)
         self._init_ros()
         if self.attach:
             self._world_settings()

@@ -447,7 +447,7 @@ def _validate_expect(v, ex, where, line, duration, ids, names):
         v.err(line, where, 'expected exactly one of %s%s' % (
             ', '.join(MODES), ', got %s' % ' and '.join(modes) if modes else ''))
     name = ex.get('name')
-    if name in names:
+    if name is not None and name in names:
         v.err(_line(ex, 'name', line), where + '.name', 'expectation name %r used twice' % name)
     names.add(name)
     for m in modes:

@@ -129,3 +129,12 @@ def test_unreadable_file():
     with pytest.raises(sc.ScenarioError) as e:
         sc.load('/nonexistent/x.yaml')
     assert 'cannot read the scenario file' in str(e.value)
+
+
+def test_unnamed_expectations_get_names_and_do_not_clash():
+    s = sc.loads('duration: 1\nexpect:\n  - {topic: /a, always: {gt: 0}}\n'
+                 '  - {topic: /b, never: {gt: 0}}\n', 'ok.yaml')
+    assert [e['name'] for e in s.expect] == ['expect0', 'expect1']
+    probs = problems('duration: 1\nexpect:\n  - {name: x, topic: /a, always: {gt: 0}}\n'
+                     '  - {name: x, topic: /b, never: {gt: 0}}\n')
+    assert probs == ["bad.yaml:4: expect[1].name: expectation name 'x' used twice"]

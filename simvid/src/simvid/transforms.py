@@ -17,20 +17,30 @@ class InvalidPose(ValueError):
     """A pose with NaN/inf values or a quaternion that cannot be normalised."""
 
 
-def quat_normalize(q):
-    """Unit quaternion of q (x, y, z, w); InvalidPose for NaN/inf or a zero quaternion.
-    Plain float math: this runs several times per world step."""
-    try:
-        x, y, z, w = (float(v) for v in q)
-    except (TypeError, ValueError):
-        raise InvalidPose('quaternion %r is not four numbers' % (q,))
+def _floats(q):
+    """The numbers of a small vector as Python floats (cheaper arithmetic than numpy scalars)."""
+    return q.tolist() if type(q) is np.ndarray else q
+
+
+def _normalized(x, y, z, w):
+    """(x, y, z, w) / norm as a tuple of floats; InvalidPose for NaN/inf or zero."""
     n = math.sqrt(x * x + y * y + z * z + w * w)
     if not math.isfinite(n):
         raise InvalidPose('quaternion %s is not four finite numbers'
                           % ([round(v, 6) for v in (x, y, z, w)],))
     if n < 1e-6:
         raise InvalidPose('quaternion %s cannot be normalised (norm %.3g)' % ([x, y, z, w], n))
-    return np.array((x / n, y / n, z / n, w / n))
+    return (x / n, y / n, z / n, w / n)
+
+
+def quat_normalize(q):
+    """Unit quaternion of q (x, y, z, w); InvalidPose for NaN/inf or a zero quaternion.
+    Plain float math: this runs several times per world step."""
+    try:
+        x, y, z, w = (float(v) for v in _floats(q))
+    except (TypeError, ValueError):
+        raise InvalidPose('quaternion %r is not four numbers' % (q,))
+    return np.array(_normalized(x, y, z, w))
 
 
 def quat_from_rpy(roll, pitch, yaw):
@@ -52,13 +62,17 @@ def rpy_from_quat(q):
     return np.array([roll, pitch, yaw])
 
 
-def quat_multiply(a, b):
+def _quat_multiply(a, b):
     ax, ay, az, aw = a
     bx, by, bz, bw = b
-    return np.array([aw * bx + ax * bw + ay * bz - az * by,
+    return (aw * bx + ax * bw + ay * bz - az * by,
                      aw * by - ax * bz + ay * bw + az * bx,
                      aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz])
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+def quat_multiply(a, b):
+    return np.array(_quat_multiply(_floats(a), _floats(b)))
 
 
 def quat_conjugate(q):
@@ -66,7 +80,7 @@ def quat_conjugate(q):
 
 
 def quat_to_matrix(q):
-    x, y, z, w = q
+    x, y, z, w = _floats(q)
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -91,8 +105,29 @@ def matrix_to_quat(m):
     return quat_normalize(q)
 
 
+def _rotate(q, v):
+    """q (floats x, y, z, w) applied to v (3 floats): the rows of quat_to_matrix(q) dotted
+    with v, in plain floats."""
+    x, y, z, w = q
+    vx, vy, vz = v
+    return ((1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy + 2 * (x * z + y * w) * vz,
+            2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy + 2 * (y * z - x * w) * vz,
+            2 * (x * z - y * w) * vx + 2 * (y * z + x * w) * vy + (1 - 2 * (x * x + y * y)) * vz)
+
+
 def quat_rotate(q, v):
-    return quat_to_matrix(q).dot(np.asarray(v, dtype=float))
+    v = np.asarray(v, dtype=float)
+    if v.shape != (3,):
+        return quat_to_matrix(q).dot(v)
+    return np.array(_rotate(_floats(q), v.tolist()))
+
+
+def _pose(p, q):
+    """A Pose from already checked float tuples (no validation)."""
+    pose = Pose.__new__(Pose)
+    pose.p = np.array(p)
+    pose.q = np.array(q)
+    return pose
 
 
 class Pose(object):
@@ -101,7 +136,7 @@ class Pose(object):
 
     def __init__(self, p=(0.0, 0.0, 0.0), q=(0.0, 0.0, 0.0, 1.0), normalize=True):
         p = np.asarray(p, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
+        if p.shape != (3,) or not all(map(math.isfinite, p.tolist())):
             raise InvalidPose('position %s is not three finite numbers' % (list(p),))
         self.p = p
         self.q = quat_normalize(q) if normalize else np.asarray(q, dtype=float)
@@ -141,13 +176,18 @@ class Pose(object):
         return rpy_from_quat(self.q)
 
     def inverse(self):
-        qi = quat_conjugate(self.q)
-        return Pose(-quat_rotate(qi, self.p), qi, normalize=False)
+        x, y, z, w = self.q.tolist()
+        qi = (-x, -y, -z, w)
+        r = _rotate(qi, self.p.tolist())
+        return _pose((-r[0], -r[1], -r[2]), qi)
 
     def __mul__(self, other):
         if isinstance(other, Pose):
-            return Pose(self.p + quat_rotate(self.q, other.p),
-                        quat_normalize(quat_multiply(self.q, other.q)), normalize=False)
+            q = self.q.tolist()
+            px, py, pz = self.p.tolist()
+            r = _rotate(q, other.p.tolist())
+            return _pose((px + r[0], py + r[1], pz + r[2]),
+                         _normalized(*_quat_multiply(q, other.q.tolist())))
         return self.transform_point(other)
 
     def transform_point(self, v):

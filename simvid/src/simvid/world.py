@@ -268,7 +268,14 @@ class World(object):
             model_name = owners[0]
         pose = self.link_pose(model_name, link)
         root, lin, ang = self.model_state(model_name)
-        lin = lin + np.cross(ang, pose.p - root.p)
+        # lin + ang x (pose.p - root.p), in plain floats (np.cross is slow on 3-vectors)
+        a0, a1, a2 = ang.tolist()
+        p0, p1, p2 = pose.p.tolist()
+        r0, r1, r2 = root.p.tolist()
+        b0, b1, b2 = p0 - r0, p1 - r1, p2 - r2
+        v0, v1, v2 = lin.tolist()
+        lin = np.array((v0 + (a1 * b2 - a2 * b1), v1 + (a2 * b0 - a0 * b2),
+                        v2 + (a0 * b1 - a1 * b0)))
         return pose, lin, ang
 
     def get_state(self, name, relative_to=''):
@@ -374,7 +381,9 @@ class World(object):
         now = self.sim_time
         for ps in self.plugins.values():
             for p in ps:
-                nxt = min(nxt, p.timer.next_due(now))
+                t = p.timer.next_due(now)
+                if t < nxt:
+                    nxt = t
         self._next_plugin_time = nxt
 
     def reset(self, time=False):

@@ -484,7 +484,14 @@ class PhysicsEngine(object):
         v_com, w = self._body_twist(rec)
         body = self._body_pose(rec)
         origin = (body * rec.com_inv).p
-        return v_com + np.cross(w, origin - body.p), w
+        # v_com + w x (origin - com), in plain floats (np.cross costs ~20 us on 3-vectors)
+        a0, a1, a2 = np.asarray(w, float).tolist()
+        o0, o1, o2 = origin.tolist()
+        c0, c1, c2 = body.p.tolist()
+        b0, b1, b2 = o0 - c0, o1 - c1, o2 - c2
+        v0, v1, v2 = np.asarray(v_com, float).tolist()
+        return np.array((v0 + (a1 * b2 - a2 * b1), v1 + (a2 * b0 - a0 * b2),
+                         v2 + (a0 * b1 - a1 * b0))), w
 
     def set_model_twist(self, name, lin, ang):
         rec = self._get(name)

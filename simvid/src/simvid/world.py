@@ -246,8 +246,8 @@ class World(object):
             raise KeyError('no model named %r' % name)
         if name in self._static_poses:
             return self.models[name].pose, np.zeros(3), np.zeros(3)
-        lin, ang = self.physics.model_twist(name)
-        return self.physics.model_pose(name), np.asarray(lin, float), np.asarray(ang, float)
+        pose, lin, ang = self.physics.model_state(name)
+        return pose, np.asarray(lin, float), np.asarray(ang, float)
 
     def entity_state(self, entity):
         """State of a model, of 'model::link', or of a link name unique in the world."""
@@ -266,8 +266,15 @@ class World(object):
             if not owners:
                 raise KeyError('no model or link named %r' % entity)
             model_name = owners[0]
-        pose = self.link_pose(model_name, link)
-        root, lin, ang = self.model_state(model_name)
+        if model_name in self._static_poses:
+            pose = self.link_pose(model_name, link)
+            root, lin, ang = self.model_state(model_name)
+        else:
+            off = self.physics._get(model_name).spec.link_offsets.get(link)
+            if off is None:
+                raise KeyError('model %r has no link %r' % (model_name, link))
+            root, lin, ang = self.model_state(model_name)
+            pose = root * off       # = physics.link_pose, the body read once
         # lin + ang x (pose.p - root.p), in plain floats (np.cross is slow on 3-vectors)
         a0, a1, a2 = ang.tolist()
         p0, p1, p2 = pose.p.tolist()

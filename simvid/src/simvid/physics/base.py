@@ -478,20 +478,26 @@ class PhysicsEngine(object):
             self._set_body_pose(rec, pose * rec.spec.com)
 
     def model_twist(self, name):
+        return self.model_state(name)[1:]
+
+    def model_state(self, name):
+        """(pose, linear, angular) of the model's origin, the body read once (the same
+        values as model_pose and model_twist)."""
         rec = self._get(name)
         if rec.static:
-            return np.zeros(3), np.zeros(3)
+            return rec.pose.copy(), np.zeros(3), np.zeros(3)
         v_com, w = self._body_twist(rec)
         body = self._body_pose(rec)
-        origin = (body * rec.com_inv).p
+        root = body * rec.com_inv
+        origin = root.p
         # v_com + w x (origin - com), in plain floats (np.cross costs ~20 us on 3-vectors)
         a0, a1, a2 = np.asarray(w, float).tolist()
         o0, o1, o2 = origin.tolist()
         c0, c1, c2 = body.p.tolist()
         b0, b1, b2 = o0 - c0, o1 - c1, o2 - c2
         v0, v1, v2 = np.asarray(v_com, float).tolist()
-        return np.array((v0 + (a1 * b2 - a2 * b1), v1 + (a2 * b0 - a0 * b2),
-                         v2 + (a0 * b1 - a1 * b0))), w
+        return root, np.array((v0 + (a1 * b2 - a2 * b1), v1 + (a2 * b0 - a0 * b2),
+                               v2 + (a0 * b1 - a1 * b0))), w
 
     def set_model_twist(self, name, lin, ang):
         rec = self._get(name)

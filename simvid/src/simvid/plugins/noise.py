@@ -87,7 +87,7 @@ class ErrorModel(object):
     def step(self, dt):
         """Advance the drift by dt seconds of sim time and draw this sample's noise."""
         z = self.rng.standard_normal(2 * self.dims)
-        if np.any(self.drift):
+        if np.asarray(self.drift).any():
             f = self.drift_frequency
             a = np.exp(-np.maximum(dt, 0.0) * f)
             self.current_drift = a * self.current_drift + \
@@ -99,12 +99,12 @@ class ErrorModel(object):
         a scalar model gives a float)."""
         if self.identity and self.noise_scale == 1.0:
             return x
-        scalar = np.ndim(x) == 0
         v = np.asarray(x, float)
+        scalar = v.ndim == 0
         y = v * self.scale_error + self.offset + self.bias + self.current_drift + \
             self.current_noise
         q = self.quantization
-        if np.any(q):
+        if np.asarray(q).any():
             y = np.where(q > 0, np.round(y / np.where(q > 0, q, 1.0)) * q, y)
         if scalar or (self.dims == 1 and v.shape == ()):
             return float(y[0])

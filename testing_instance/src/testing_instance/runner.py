@@ -899,7 +899,9 @@ class Runner(object):
                 self._subscribe_all()      # topics that appeared late (apps, spawned models)
             self._drain()
             self._check_conditions()
-        self._settle()
+        # the last slice's messages: wait longer (a loaded machine can hold one back for
+        # more than a slice's quiet period; the recording must not end before it)
+        self._settle(quiet=0.25)
         self._drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:

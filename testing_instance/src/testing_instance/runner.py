@@ -444,10 +444,35 @@ class Runner(object):
             while time.monotonic() < deadline and any(
                     self.subs[t].get_num_connections() == 0 for t in new):
                 time.sleep(0.02)
+            self._wait_publisher_side(new, deadline)
             if os.environ.get('SCENARIO_DEBUG'):
                 self.say('subscribed %s; unconnected: %s' % (new, [
                     t for t in new if self.subs[t].get_num_connections() == 0]))
         return new
+
+    def _wait_publisher_side(self, topics, deadline):
+        """Wait until the world's publishers count this node as a subscriber: a sensor
+        publishes only while subscribed, so a connection still being accepted on the world's
+        side would cost the first message in one run and not in another."""
+        import rosgraph
+        from xmlrpc.client import ServerProxy
+        master = rosgraph.Master('/scenario_runner')
+        me = self.rospy.get_name()
+        try:
+            pubs, _subs, _srv = master.getSystemState()
+            node_uri = master.lookupNode('/sim_world')
+        except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
+            return
+        want = {t for t, ns in pubs if '/sim_world' in ns and t in topics}
+        while want and time.monotonic() < deadline:
+            try:
+                _c, _m, info = ServerProxy(node_uri).getBusInfo(me)
+            except Exception:  # noqa: BLE001
+                return
+            have = {c[4] for c in info if len(c) > 4 and c[2] == 'o' and c[1] == me}
+            if not want - have:
+                return
+            time.sleep(0.02)
 
     def _check_fields(self, topic, cls):
         proto = cls()

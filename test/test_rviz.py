@@ -33,11 +33,14 @@ def _panels_ok(rgb):
     left = np.ascontiguousarray(rgb[:, :rgb.shape[1] // 3])
     gray = cv2.cvtColor(left, cv2.COLOR_RGB2GRAY)
     qr_row = None
-    for scale in (2, 1, 3):
+    for scale in (2, 1, 3, 1.5, 2.5, 4):
         big = cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_CUBIC)
-        codes = [c for c in pyzbar.decode(big) if c.data == b'http://vmi.lmt.ei.tum.de']
-        if codes:
-            qr_row = codes[0].rect.top / scale
+        for img in (big, cv2.threshold(big, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)[1]):
+            codes = [c for c in pyzbar.decode(img) if c.data == b'http://vmi.lmt.ei.tum.de']
+            if codes:
+                qr_row = codes[0].rect.top / scale
+                break
+        if qr_row is not None:
             break
     if qr_row is None:
         return False, 0

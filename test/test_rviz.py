@@ -29,24 +29,30 @@ def _free_port():
 
 
 def _panels_ok(rgb):
-    """(QR decoded in the left dock, desk pixels above it) of a screenshot."""
+    """(QR decoded in the left dock, desk pixels outside the phone-camera panel). The dock
+    order of the two panels is up to Qt, so the phone camera's panel is found by its code
+    (the largest decoded) and the flycam's desk is counted outside that panel's rows."""
     left = np.ascontiguousarray(rgb[:, :rgb.shape[1] // 3])
     gray = cv2.cvtColor(left, cv2.COLOR_RGB2GRAY)
-    qr_row = None
+    best = None
     for scale in (2, 1, 3, 1.5, 2.5, 4):
         big = cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_CUBIC)
         for img in (big, cv2.threshold(big, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)[1]):
-            codes = [c for c in pyzbar.decode(img) if c.data == b'http://vmi.lmt.ei.tum.de']
-            if codes:
-                qr_row = codes[0].rect.top / scale
-                break
-        if qr_row is not None:
+            for c in pyzbar.decode(img):
+                if c.data != b'http://vmi.lmt.ei.tum.de':
+                    continue
+                area = c.rect.width * c.rect.height / scale ** 2
+                if best is None or area > best[0]:
+                    best = (area, c.rect.top / scale, (c.rect.top + c.rect.height) / scale)
+        if best is not None:
             break
-    if qr_row is None:
+    if best is None:
         return False, 0
     r, g, b = (left[:, :, i].astype(int) for i in range(3))
     desk = (r > 180) & (g > 100) & (g < 175) & (b < 120)
-    return True, int(desk[:int(qr_row) - 40].sum())
+    rows = np.arange(left.shape[0])
+    outside = (rows < best[1] - 90) | (rows > best[2] + 110)
+    return True, int(desk[outside].sum())
 
 
 @pytest.mark.slow

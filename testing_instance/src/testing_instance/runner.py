@@ -243,7 +243,9 @@ class Runner(object):
                 raise RunError('the world exited while starting (code %s)'
                                % self.world_proc.p.returncode, self.world_log())
             try:
-                m.getPid()
+                # getSystemState: only a master answers it (getPid is any node's API, and a
+                # node of another job may hold this port for a moment)
+                m.getSystemState()
                 return
             except Exception:  # noqa: BLE001 - not up yet
                 time.sleep(0.2)
@@ -844,10 +846,19 @@ class Runner(object):
     def _start_world(self):
         deadline = time.monotonic() + min(self.sc.timeout, 120.0)
         if not self.attach:
-            if self.port is None:
-                self.port = free_port()
-            self._launch_world()
-            self._wait_master(deadline)
+            for attempt in (1, 2):
+                if self.port is None or attempt == 2:
+                    self.port = free_port()
+                self._launch_world()
+                try:
+                    self._wait_master(deadline)
+                    break
+                except RunError:
+                    # the free port was taken by another process between the check and the
+                    # master's bind (parallel jobs): once more on a new port
+                    if attempt == 2 or time.monotonic() >= deadline:
+                        raise
+                    self.world_proc.stop(grace=2.0)
             # rospy reads /use_sim_time at init_node: set it before (the launch file sets
             # it too, maybe later); else this node would time messages by the wall clock
             import rosgraph

@@ -2,19 +2,19 @@
 from setuptools import setup
 from catkin_pkg.python_setup import generate_distutils_setup
 
-setup(**generate_distutils_setup(
-    packages=['simvid', 'simvid.physics', 'simvid.render', 'simvid.plugins',
-              'textvid', 'kinect4skype', 'vnc_image_client',
-              'simsensors', 'testing_instance'],
-    package_dir={
-        'simvid': 'simvid/src/simvid',
-        'simvid.physics': 'simvid/src/simvid/physics',
-        'simvid.render': 'simvid/src/simvid/render',
-        'simvid.plugins': 'simvid/src/simvid/plugins',
-        'textvid': 'textvid/src/textvid',
-        'kinect4skype': 'kinect4skype/src/kinect4skype',
-        'vnc_image_client': 'vnc_image_client/src/vnc_image_client',
-        'simsensors': 'simsensors/src/simsensors',
-        'testing_instance': 'testing_instance/src/testing_instance',
-    },
-))
+# One catkin package, one importable library per stack (<stack>/src/<package>/).
+STACKS = {
+    'sim_world': ['sim_world', 'sim_world.physics', 'sim_world.render', 'sim_world.plugins'],
+    'simvid': ['simvid'],
+    'textvid': ['textvid'],
+    'simsensors': ['simsensors'],
+    'kinect4skype': ['kinect4skype'],
+    'vnc_image_client': ['vnc_image_client'],
+    'emulator_bridge': ['emulator_bridge'],
+    'testing_instance': ['testing_instance'],
+}
+packages = [p for pkgs in STACKS.values() for p in pkgs]
+package_dir = {p: '%s/src/%s' % (stack, p.replace('.', '/'))
+               for stack, pkgs in STACKS.items() for p in pkgs}
+
+setup(**generate_distutils_setup(packages=packages, package_dir=package_dir))

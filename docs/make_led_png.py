@@ -9,13 +9,13 @@ import re
 import cv2
 import numpy as np
 
-from simvid.render import CameraView
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file
-from simvid.world import World
+from sim_world.render import CameraView
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-launch = open(os.path.join(ROOT, 'simvid/launch/office.launch')).read()
+launch = open(os.path.join(ROOT, 'sim_world/launch/office.launch')).read()
 
 
 def arg(n):
@@ -23,8 +23,8 @@ def arg(n):
 
 
 w = World(physics='ode', seed=1)
-w.load_world_file(os.path.join(ROOT, 'simvid/worlds/office.world'))
-w.add_model(load_urdf_file(os.path.join(ROOT, 'simvid/urdf/mobile_device.urdf.xacro')),
+w.load_world_file(os.path.join(ROOT, 'sim_world/worlds/office.world'))
+w.add_model(load_urdf_file(os.path.join(ROOT, 'sim_world/urdf/mobile_device.urdf.xacro')),
             pose=Pose.from_xyz_rpy((arg('phone_x'), arg('phone_y'), arg('phone_z')),
                                    (0, 0, arg('phone_yaw'))))
 led = next(p for p in w.plugins['mobile_device'] if type(p).__name__ == 'Led')

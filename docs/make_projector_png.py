@@ -10,13 +10,13 @@ import re
 import cv2
 import numpy as np
 
-from simvid.render import CameraView
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file
-from simvid.world import World
+from sim_world.render import CameraView
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-launch = open(os.path.join(ROOT, 'simvid/launch/office.launch')).read()
+launch = open(os.path.join(ROOT, 'sim_world/launch/office.launch')).read()
 
 
 def arg(n):
@@ -24,9 +24,9 @@ def arg(n):
 
 
 w = World(physics='ode', seed=1, gravity=(0, 0, 0))
-w.load_world_file(os.path.join(ROOT, 'simvid/worlds/office.world'))
+w.load_world_file(os.path.join(ROOT, 'sim_world/worlds/office.world'))
 x, y, z = arg('phone_x'), arg('phone_y'), arg('phone_z')
-w.add_model(load_urdf_file(os.path.join(ROOT, 'simvid/urdf/mobile_device.urdf.xacro')),
+w.add_model(load_urdf_file(os.path.join(ROOT, 'sim_world/urdf/mobile_device.urdf.xacro')),
             pose=Pose.from_xyz_rpy((x, y, z + 0.35), (0, math.radians(70), 0)))
 proj = next(p for p in w.plugins['mobile_device'] if type(p).__name__ == 'Projector')
 img = np.zeros((240, 320, 3), np.uint8)

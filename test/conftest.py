@@ -4,8 +4,8 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-for stack in ('simvid', 'textvid', 'kinect4skype', 'vnc_image_client', 'simsensors',
-              'testing_instance'):
+for stack in ('sim_world', 'simvid', 'textvid', 'kinect4skype', 'vnc_image_client',
+              'simsensors', 'emulator_bridge', 'testing_instance'):
     src = os.path.join(ROOT, stack, 'src')
     if src not in sys.path:
         sys.path.insert(0, src)

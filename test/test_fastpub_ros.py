@@ -1,4 +1,4 @@
-"""simvid.fastpub under a real roscore: a publisher (as the camera's image_raw and sim_world's
+"""sim_world.fastpub under a real roscore: a publisher (as the camera's image_raw and sim_world's
 /clock use it) serves a remote rospy subscriber every message intact, hands a subscriber in
 its own node the very message objects (no serialization, no socket), respects that
 subscriber's queue, and drops the local connection once the subscriber unregisters (so the
@@ -20,7 +20,7 @@ PUBLISHER = textwrap.dedent('''
     sys.path.insert(0, %(src)r)
     import rospy
     from sensor_msgs.msg import Image
-    from simvid import fastpub
+    from sim_world import fastpub
     rospy.init_node('fastpub_probe', disable_signals=True)
     pub = fastpub.publisher('/probe', Image, queue_size=50)
     sent, got, got_slow = [], [], []
@@ -123,7 +123,7 @@ def test_local_objects_remote_bytes_and_cleanup(roscore):
     remote = subprocess.Popen([sys.executable, '-c', REMOTE], env=roscore,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     pub = subprocess.Popen([sys.executable, '-c',
-                            PUBLISHER % dict(src=os.path.join(ROOT, 'simvid', 'src'))],
+                            PUBLISHER % dict(src=os.path.join(ROOT, 'sim_world', 'src'))],
                            env=roscore, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True)
     try:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from pyzbar import pyzbar
 
-from simvid.xwd import read_xwd
+from fixtures.xwd import read_xwd
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(ROOT, 'build', 'test-output')

@@ -200,7 +200,7 @@ expect:
 
 def test_every_action_reaches_the_world(tmp_path):
     f = tmp_path / 'actions.yaml'
-    f.write_text(ACTIONS % {'png': os.path.join(ROOT, 'simvid', 'worlds', 'media',
+    f.write_text(ACTIONS % {'png': os.path.join(ROOT, 'sim_world', 'worlds', 'media',
                                                 'qr_paper.png')})
     rc, out = run(f)
     assert rc == 0, out

@@ -6,6 +6,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 import unittest
@@ -17,8 +18,9 @@ from sensor_msgs.msg import BatteryState
 
 from mobile_device_sim.msg import ModelState
 from mobile_device_sim.srv import GetModelState, SetModelState
-from simvid.emulator_console_testserver import ConsoleTestServer
-from simvid.transforms import quat_from_rpy
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))  # test/fixtures
+from fixtures.emulator_console_testserver import ConsoleTestServer  # noqa: E402
+from sim_world.transforms import quat_from_rpy
 
 
 def values(cmd):

@@ -15,7 +15,7 @@ from std_msgs.msg import Float64
 
 from mobile_device_sim.srv import SpawnModel
 from simvid.imageconv import image_to_rgb
-from simvid.transforms import Pose
+from sim_world.transforms import Pose
 
 # paper top surface (office.world): centre (3.32, -2.10), z = 0.75025 + 0.00025
 PAPER = (3.32, -2.10, 0.7505)

@@ -110,8 +110,8 @@ class LocationSensors(unittest.TestCase):
         self.assertAlmostEqual(tr.time_ref.to_sec(), tr.header.stamp.to_sec(), places=6)
 
     def test_3_walk_out_of_the_door_gets_a_fix_after_ttff(self):
-        from simvid.sdf import load_world_file
-        env = load_world_file(os.path.join(ROOT, 'simvid', 'worlds', 'office.world')).environment
+        from sim_world.sdf import load_world_file
+        env = load_world_file(os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')).environment
         set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
         n0 = len(self.rec['fix'].msgs)
         t_visible = None

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from simsensors.audio import AudioSource, Microphone, SPEED_OF_SOUND, scene_of
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file, parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 
 
 def _body(name, plugin, params):

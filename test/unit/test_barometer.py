@@ -8,15 +8,15 @@ import os
 import numpy as np
 import pytest
 
-from simvid.sdf import load_world_file
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.sdf import load_world_file
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 from simsensors.barometer import Barometer, altitude_from_pressure
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 EXACT = '<gaussianNoise>0</gaussianNoise>'
 
 

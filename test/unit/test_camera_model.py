@@ -12,9 +12,9 @@ from simvid.camera_model import (CameraModelError, Distorter, Intrinsics, SimCam
                                  camera_info, focal_from_hfov, hfov_from_focal, pack_rgb,
                                  points_from_depth, point_cloud2, distort_normalized,
                                  undistort_normalized)
-from simvid.model import Geometry, Link, Material, Model, Visual
-from simvid.render import Renderer
-from simvid.transforms import Pose
+from sim_world.model import Geometry, Link, Material, Model, Visual
+from sim_world.render import Renderer
+from sim_world.transforms import Pose
 
 
 def test_focal_length_formula_of_the_thesis():

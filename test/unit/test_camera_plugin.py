@@ -8,11 +8,11 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from simvid import plugins
-from simvid.model import Geometry, Link, Material, Model, PluginSpec, Visual, Joint
-from simvid.plugins.camera import CameraPlugin
-from simvid.render import Renderer
-from simvid.transforms import Pose
+from sim_world import plugins
+from sim_world.model import Geometry, Link, Material, Model, PluginSpec, Visual, Joint
+from simvid.camera import CameraPlugin
+from sim_world.render import Renderer
+from sim_world.transforms import Pose
 
 THESIS = '''<camera name="camera_sensor">
   <imageSize>480 800</imageSize>
@@ -47,7 +47,7 @@ CLASSIC = '''<sensor type="camera" name="cam1">
 
 
 class World(object):
-    """What a plugin may use of simvid.world.World, without ROS."""
+    """What a plugin may use of sim_world.world.World, without ROS."""
     ros_enabled = False
 
     def __init__(self, models):
@@ -338,8 +338,8 @@ def test_rate_change_applies_at_once_on_the_world():
     """Regression (issue 9): a camera at 0.5 Hz told set_update_rate 30 at t = 0.1 s used to
     keep its 0.5 Hz schedule until t = 2 s (the new rate only took effect in the next
     update()). Now the next frame comes one new period later."""
-    from simvid.urdf import parse_urdf
-    from simvid.world import World as RealWorld
+    from sim_world.urdf import parse_urdf
+    from sim_world.world import World as RealWorld
     urdf = '''<robot name="cam"><link name="base">
       <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
       <gazebo reference="base"><turnGravityOff>true</turnGravityOff>

@@ -5,9 +5,9 @@ import logging
 
 import pytest
 
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 from simsensors.device_clock import DeviceClock
 

@@ -9,14 +9,14 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from simvid.emulator_bridge import (AuthError, Bridge, ConsoleClient, ConsoleError,
+from emulator_bridge.bridge import (AuthError, Bridge, ConsoleClient, ConsoleError,
                                     battery_commands, cell_commands, fix_commands,
                                     fraction_to_percent, gga_satellites, humidity_commands,
                                     imu_commands, m_to_cm, magnetic_commands,
                                     orientation_angles, pa_to_hpa, pressure_commands,
                                     proximity_commands, tesla_to_microtesla, wifi_commands)
-from simvid.emulator_console_testserver import ConsoleTestServer
-from simvid.transforms import quat_from_rpy, quat_multiply
+from fixtures.emulator_console_testserver import ConsoleTestServer
+from sim_world.transforms import quat_from_rpy, quat_multiply
 
 
 def v3(x, y, z):

@@ -6,13 +6,13 @@ import os
 import numpy as np
 import pytest
 
-from simvid.environment import (Environment, EnvironmentError, IndoorVolume,
+from sim_world.environment import (Environment, EnvironmentError, IndoorVolume,
                                 parse_environment_text)
-from simvid.model import ModelError
-from simvid.sdf import load_world_file, parse_world
+from sim_world.model import ModelError
+from sim_world.sdf import load_world_file, parse_world
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 
 
 @pytest.fixture(scope='module')

@@ -1,4 +1,4 @@
-"""simvid.fastpub without a roscore: the queued connection that does not yield the GIL per
+"""sim_world.fastpub without a roscore: the queued connection that does not yield the GIL per
 message (same queue, drop-oldest and error behaviour as rospy's QueuedConnection), and the
 renderer's lazy pose application that the camera path relies on."""
 import math
@@ -10,10 +10,10 @@ import pytest
 
 pytest.importorskip('rospy')
 
-from simvid import fastpub  # noqa: E402
-from simvid.model import Geometry, Link, Material, Model, Visual  # noqa: E402
-from simvid.render import CameraView, Renderer  # noqa: E402
-from simvid.transforms import Pose, quat_from_rpy  # noqa: E402
+from sim_world import fastpub  # noqa: E402
+from sim_world.model import Geometry, Link, Material, Model, Visual  # noqa: E402
+from sim_world.render import CameraView, Renderer  # noqa: E402
+from sim_world.transforms import Pose, quat_from_rpy  # noqa: E402
 
 
 class FakeTransport(object):

@@ -9,15 +9,15 @@ import numpy as np
 import pynmea2
 import pytest
 
-from simvid.sdf import load_world_file
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.sdf import load_world_file
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 from simsensors.gps import Gps, nmea_sentences
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 EXACT = ('<positionGaussianNoise>0</positionGaussianNoise><positionDrift>0</positionDrift>'
          '<velocityGaussianNoise>0</velocityGaussianNoise>')
 OUTSIDE = np.array([20.0, 20.0, 1.0])

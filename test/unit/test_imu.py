@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 
 NO_NOISE = '<accelGaussianNoise>0</accelGaussianNoise><rateGaussianNoise>0</rateGaussianNoise>'

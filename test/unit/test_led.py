@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from simsensors.led import Led, LedPattern, argb_rgb, parse_color
-from simvid.render import CameraView
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file
-from simvid.world import World
+from sim_world.render import CameraView
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 
 
 @pytest.fixture

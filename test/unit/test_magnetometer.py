@@ -9,16 +9,16 @@ import os
 import numpy as np
 import pytest
 
-from simvid.sdf import load_world_file
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file, parse_urdf
-from simvid.world import World
+from sim_world.sdf import load_world_file
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
 
 from simsensors.magnetometer import CDD_SIGMA, Magnetometer
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 TOL = 6 * CDD_SIGMA
 
 

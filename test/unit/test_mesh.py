@@ -1,4 +1,4 @@
-"""One mesh loader (simvid.mesh) for physics and rendering: a Collada file in centimetres
+"""One mesh loader (sim_world.mesh) for physics and rendering: a Collada file in centimetres
 with Y up (like the thesis's Nexus S export) collides exactly where it is drawn, on both
 physics engines. Before the shared loader, physics read the raw file (no <unit>, no
 <up_axis>): the mesh drawn 0.2 m long collided 20 m long and lying on its side.
@@ -6,11 +6,11 @@ No roscore, no OpenGL context (the drawn extent is the renderer's MeshData)."""
 import numpy as np
 import pytest
 
-from simvid import mesh as smesh
-from simvid.model import Collision, Geometry, Inertial, Link, Model, ModelError, sphere_inertia
-from simvid.physics import ENGINES, lump_model, make_engine
-from simvid.render import shapes
-from simvid.transforms import Pose
+from sim_world import mesh as smesh
+from sim_world.model import Collision, Geometry, Inertial, Link, Model, ModelError, sphere_inertia
+from sim_world.physics import ENGINES, lump_model, make_engine
+from sim_world.render import shapes
+from sim_world.transforms import Pose
 
 DT = 0.001
 R = 0.005            # radius of the probe balls

@@ -4,12 +4,12 @@ import os
 import numpy as np
 import pytest
 
-from simvid.model import ModelError, cuboid_inertia
-from simvid.sdf import load_world_file, parse_sdf_model, parse_world
-from simvid.urdf import load_urdf_file, parse_urdf
+from sim_world.model import ModelError, cuboid_inertia
+from sim_world.sdf import load_world_file, parse_sdf_model, parse_world
+from sim_world.urdf import load_urdf_file, parse_urdf
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-URDF = os.path.join(ROOT, 'simvid', 'urdf')
+URDF = os.path.join(ROOT, 'sim_world', 'urdf')
 
 
 def test_thesis_cuboid_inertia_numbers():
@@ -131,7 +131,7 @@ def test_broken_xacro_file(tmp_path):
 
 
 def test_office_world():
-    w = load_world_file(os.path.join(ROOT, 'simvid', 'worlds', 'office.world'))
+    w = load_world_file(os.path.join(ROOT, 'sim_world', 'worlds', 'office.world'))
     names = [m.name for m in w.models]
     for n in ('ground_plane', 'desk', 'chair', 'paper'):
         assert n in names

@@ -12,7 +12,7 @@ from std_msgs.msg import Header
 from kinect4skype.cloud import UnsupportedCloud, arrays_to_cloud, cloud_to_arrays
 from kinect4skype.node import Pcl2Image
 from kinect4skype.render import PointCloudRenderer, viewpoint_from_list
-from simvid.transforms import Pose, quat_from_rpy
+from sim_world.transforms import Pose, quat_from_rpy
 
 W, H = 160, 120
 HFOV = math.radians(60)

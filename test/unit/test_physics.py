@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from simvid.model import (Collision, Geometry, Inertial, Joint, Link, Model, ModelError,
+from sim_world.model import (Collision, Geometry, Inertial, Joint, Link, Model, ModelError,
                           cuboid_inertia, sphere_inertia, cylinder_inertia)
-from simvid.physics import ENGINES, lump_model, make_engine
-from simvid.transforms import InvalidPose, Pose, quat_from_rpy
+from sim_world.physics import ENGINES, lump_model, make_engine
+from sim_world.transforms import InvalidPose, Pose, quat_from_rpy
 
 G = 9.81
 DT = 0.001
@@ -133,7 +133,7 @@ def test_static_mesh_collides(engine, tmp_path):
 def test_mesh_boxes_cover_the_mesh_and_keep_holes():
     """ODE's mesh fallback (pyode has no trimesh support): boxes from a voxelisation."""
     trimesh = pytest.importorskip('trimesh')
-    from simvid.physics.base import mesh_boxes
+    from sim_world.physics.base import mesh_boxes
 
     def inside(boxes, pt):
         return any(np.all(np.abs(np.asarray(pt) - c) <= s / 2 + 1e-9) for c, s in boxes)
@@ -389,7 +389,7 @@ def test_lumped_body_dynamics_on_both_engines(engine):
 def test_non_fixed_joint_is_lumped_with_one_warning(engine, caplog):
     links = {'base': box_link('base', (0.1, 0.1, 0.1)), 'arm': box_link('arm', (0.1, 0.1, 0.1))}
     joints = [Joint('elbow', 'revolute', 'base', 'arm', Pose((0, 0, 0.2)), axis=(0, 1, 0))]
-    with caplog.at_level(logging.WARNING, logger='simvid.physics'):
+    with caplog.at_level(logging.WARNING, logger='sim_world.physics'):
         engine.add_model(Model('robot', links, joints, pose=Pose((0, 0, 1))))
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert len(warnings) == 1 and "'elbow'" in warnings[0] and 'revolute' in warnings[0]
@@ -398,7 +398,7 @@ def test_non_fixed_joint_is_lumped_with_one_warning(engine, caplog):
 def test_mixed_gravity_links_keep_gravity(engine, caplog):
     links = {'a': box_link('a', (0.1, 0.1, 0.1), gravity=False),
              'b': box_link('b', (0.1, 0.1, 0.1), gravity=True)}
-    with caplog.at_level(logging.WARNING, logger='simvid.physics'):
+    with caplog.at_level(logging.WARNING, logger='sim_world.physics'):
         engine.add_model(Model('half', links, [Joint('j', 'fixed', 'a', 'b', Pose((0.2, 0, 0)))],
                                pose=Pose((0, 0, 1))))
     assert any('gravity' in r.getMessage() for r in caplog.records)

@@ -3,9 +3,9 @@ same on ODE and Bullet (the touch screen and the buttons read them)."""
 import numpy as np
 import pytest
 
-from simvid.physics import make_engine
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
+from sim_world.physics import make_engine
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
 
 PHONE = parse_urdf('''<robot name="phone">
   <link name="body"><inertial><mass value="0.129"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>

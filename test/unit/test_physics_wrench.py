@@ -3,9 +3,9 @@ controller and the vibration motor of thesis 3.4.3 push bodies through them. No 
 import numpy as np
 import pytest
 
-from simvid.model import Collision, Geometry, Inertial, Link, Model, cuboid_inertia
-from simvid.physics import ENGINES, make_engine
-from simvid.transforms import Pose
+from sim_world.model import Collision, Geometry, Inertial, Link, Model, cuboid_inertia
+from sim_world.physics import ENGINES, make_engine
+from sim_world.transforms import Pose
 
 DT = 0.001
 

@@ -9,10 +9,10 @@ import pytest
 
 from simsensors.projector import (Projector, image_from_msg, pixel_on_plane, pixel_ray,
                                   world_to_pixel)
-from simvid.render import CameraView
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.render import CameraView
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 DOWN = Pose.from_xyz_rpy((0, 0, 2), (0, math.pi / 2, 0))   # link x -> world -z, z -> +x
 

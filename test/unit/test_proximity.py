@@ -5,20 +5,20 @@ import os
 
 import pytest
 
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file, parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
 
-#: the ray caster (simvid.raycast, world.raycast) is another helper's work; until it is in
+#: the ray caster (sim_world.raycast, world.raycast) is another helper's work; until it is in
 #: the tree the tests that need it are skipped, and run as soon as it lands
 needs_raycast = pytest.mark.skipif(
-    importlib.util.find_spec('simvid.raycast') is None and not hasattr(World, 'raycast'),
-    reason='world.raycast (simvid.raycast) is not in the tree yet')
+    importlib.util.find_spec('sim_world.raycast') is None and not hasattr(World, 'raycast'),
+    reason='world.raycast (sim_world.raycast) is not in the tree yet')
 
 from simsensors.proximity import Proximity, proximity_value
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 SENSOR = (0.055, 0.012, 1 + 0.01088 / 2 + 0.0005)     # the sensor link, phone at (0, 0, 1)
 
 

@@ -8,10 +8,10 @@ import subprocess
 import numpy as np
 import pytest
 
-from simvid.sdf import parse_sdf_model
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.sdf import parse_sdf_model
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 from simsensors import radio_budget as rb
 from simsensors.bluetooth import BluetoothAdapter
@@ -20,8 +20,8 @@ from simsensors.nfc import NfcDevice
 from simsensors.wifi import WifiReceiver
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-XACRO = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+XACRO = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 F = 2437.0
 
 

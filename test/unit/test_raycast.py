@@ -1,19 +1,19 @@
-"""simvid.raycast: first hits and inside-intervals over the world's collision shapes (box,
+"""sim_world.raycast: first hits and inside-intervals over the world's collision shapes (box,
 sphere, cylinder, mesh, plane) at their current poses, on both engines."""
 import os
 
 import numpy as np
 import pytest
 
-from simvid.model import Collision, Geometry, Link, Model
-from simvid.raycast import RayCaster
-from simvid.sdf import parse_sdf_model
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.model import Collision, Geometry, Link, Model
+from sim_world.raycast import RayCaster
+from sim_world.sdf import parse_sdf_model
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'simvid', 'worlds', 'office.world')
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 
 
 def static(name, geom, pose, material=None):

@@ -1,4 +1,4 @@
-"""Offscreen renderer (simvid.render): exact pinhole projection, depth, lights, textures,
+"""Offscreen renderer (sim_world.render): exact pinhole projection, depth, lights, textures,
 video texture faces, meshes (OBJ/STL/DAE written here), model removal. No roscore; one
 OSMesa context for the whole process, small images so the file runs in a few seconds."""
 import math
@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
-from simvid.model import Geometry, Light, Link, Material, Model, Visual
-from simvid.render import CameraView, Renderer, get_context, shapes
-from simvid.transforms import Pose
+from sim_world.model import Geometry, Light, Link, Material, Model, Visual
+from sim_world.render import CameraView, Renderer, get_context, shapes
+from sim_world.transforms import Pose
 
 RED = Material((1.0, 0.0, 0.0, 1.0), lit=False)
 

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from simvid.model import Geometry, Link, Material, Model, Visual
-from simvid.render import CameraView, Renderer
-from simvid.transforms import Pose
+from sim_world.model import Geometry, Link, Material, Model, Visual
+from sim_world.render import CameraView, Renderer
+from sim_world.transforms import Pose
 
 
 def _scene():

@@ -146,10 +146,10 @@ def test_image_barcode():
     import cv2
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from glob import glob
-    pngs = sorted(glob(os.path.join(root, 'simvid', 'worlds', 'media', '**', '*qr*.png'),
+    pngs = sorted(glob(os.path.join(root, 'sim_world', 'worlds', 'media', '**', '*qr*.png'),
                        recursive=True))
     if not pngs:
-        pytest.skip('no QR picture in simvid/worlds/media')
+        pytest.skip('no QR picture in sim_world/worlds/media')
     bgr = cv2.imread(pngs[0])
     msg = rgb_image(bgr[:, :, ::-1])
     p = Predicate({'barcode': 'no such payload'})

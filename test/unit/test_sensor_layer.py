@@ -8,17 +8,17 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from simvid import plugins
-from simvid.model import PluginSpec
-from simvid.plugins.noise import ErrorModel, error_model_from, error_params
-from simvid.plugins.params import Param, parse_params
-from simvid.plugins.timer import UpdateTimer
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file, parse_urdf
-from simvid.world import World
+from sim_world import plugins
+from sim_world.model import PluginSpec
+from sim_world.plugins.error_models import ErrorModel, error_model_from, error_params
+from sim_world.plugins.params import Param, parse_params
+from sim_world.plugins.timer import UpdateTimer
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 
 
 def spec_of(xml, sensor_xml=None):
@@ -201,7 +201,7 @@ def test_no_seed_is_random_and_logged(caplog):
 
 def _phone_world(seed, physics='ode', extra_models=()):
     w = World(physics=physics, seed=seed)
-    w.load_world_file(os.path.join(ROOT, 'simvid', 'worlds', 'office.world'))
+    w.load_world_file(os.path.join(ROOT, 'sim_world', 'worlds', 'office.world'))
     w.add_model(load_urdf_file(PHONE, name='mobile_device'), pose=Pose((3.288, -2.11, 1.0)))
     return w
 
@@ -246,7 +246,7 @@ def test_android_device_frame_gravity(rpy, axis):
     w = World(seed=1)
     try:
         urdf = open(PHONE).read()
-        from simvid.urdf import process_xacro
+        from sim_world.urdf import process_xacro
         m = parse_urdf(process_xacro(PHONE), name='phone')
         for p in m.plugins:
             if p.filename == 'libgazebo_ros_imu.so':

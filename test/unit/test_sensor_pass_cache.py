@@ -3,9 +3,9 @@
 outlives the pass (a sensor updated by hand after set_state reads the new pose)."""
 import pytest
 
-from simvid.transforms import Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 from simsensors.barometer import Barometer
 from simsensors.magnetometer import Magnetometer

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from sensor_msgs.msg import Image
 
-from simvid import plugins
+from sim_world import plugins
 from simvid.imageconv import array_to_image
-from simvid.model import Geometry, Link, Model, PluginSpec, Visual
+from sim_world.model import Geometry, Link, Model, PluginSpec, Visual
 from textvid import video
 from textvid.video import BLUE, VideoPlugin, VideoTexture
 
@@ -419,7 +419,7 @@ def test_load_file_topic_resolves_package_urls(monkeypatch):
     model = _model()
     model.base_dir = '/nonexistent'          # found through ROS_PACKAGE_PATH, not by luck
     p = plugins.create(_spec('<bodyName>mobile_display</bodyName>'), model, FakeWorld())
-    p.on_load_file(String(data='package://mobile_device_sim/simvid/worlds/media/'
+    p.on_load_file(String(data='package://mobile_device_sim/sim_world/worlds/media/'
                                + qrassets.CLOSED_LOOP_FILE))
     assert p.texture.errors == 0 and p.texture.source.startswith('file:' + root)
     p.on_load_file(String(data='  %s  ' % os.path.join(qrassets.MEDIA_DIR,

@@ -5,14 +5,14 @@ import os
 
 import pytest
 
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file, parse_urdf
-from simvid.world import World
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
 
 from simsensors.touch import DOWN, MOVE, UP, PointerTracker, TouchScreen
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 DEPTH = 0.01088                        # phone body thickness (xacro)
 TOP = DEPTH / 2 + 0.00025              # display's front face above mobile_base_link
 R = 0.004                              # finger tip radius

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from simvid.camera_move import apply_movement, movement_from_axes
-from simvid.transforms import InvalidPose, Pose, quat_from_rpy, rpy_from_quat
+from sim_world.transforms import InvalidPose, Pose, quat_from_rpy, rpy_from_quat
 
 
 def test_rpy_roundtrip():

@@ -10,13 +10,13 @@ import pytest
 
 from simsensors.force import ForceController
 from simsensors.vibration import Vibration, Waveform, square_impulse, step_forces
-from simvid.plugins.imu import ImuPlugin
-from simvid.transforms import Pose
-from simvid.urdf import load_urdf_file
-from simvid.world import World
+from simsensors.imu import ImuPlugin
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file
+from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 
 
 @pytest.fixture(params=['ode', 'bullet'])

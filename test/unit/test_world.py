@@ -4,11 +4,11 @@ import logging
 import numpy as np
 import pytest
 
-from simvid import plugins
-from simvid.model import ModelError
-from simvid.transforms import InvalidPose, Pose
-from simvid.urdf import parse_urdf
-from simvid.world import World
+from sim_world import plugins
+from sim_world.model import ModelError
+from sim_world.transforms import InvalidPose, Pose
+from sim_world.urdf import parse_urdf
+from sim_world.world import World
 
 CALLS = []
 
@@ -136,10 +136,10 @@ def test_duplicate_and_delete(world):
 
 def test_office_world_loads_with_phone(world):
     import os
-    from simvid.urdf import load_urdf_file
+    from sim_world.urdf import load_urdf_file
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    world.load_world_file(os.path.join(root, 'simvid', 'worlds', 'office.world'))
-    world.add_model(load_urdf_file(os.path.join(root, 'simvid', 'urdf',
+    world.load_world_file(os.path.join(root, 'sim_world', 'worlds', 'office.world'))
+    world.add_model(load_urdf_file(os.path.join(root, 'sim_world', 'urdf',
                                                 'mobile_device.urdf.xacro')),
                     pose=Pose((3.288, -2.11, 1.0)))
     names = [p.spec.filename for p in world.plugins['mobile_device']]

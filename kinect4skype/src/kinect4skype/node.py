@@ -28,7 +28,7 @@ from geometry_msgs.msg import Pose as PoseMsg
 from sensor_msgs.msg import Image, PointCloud2
 
 from simvid.imageconv import array_to_image
-from simvid.transforms import Pose
+from sim_world.transforms import Pose
 
 from .cloud import UnsupportedCloud, cloud_to_arrays
 from .render import COLOR_MODES, PointCloudRenderer, viewpoint_from_list

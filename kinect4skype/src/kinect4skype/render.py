@@ -1,8 +1,8 @@
-"""Point clouds drawn offscreen through the project's one OSMesa context (simvid.render).
+"""Point clouds drawn offscreen through the project's one OSMesa context (sim_world.render).
 
 The thesis's pcl2image subclassed PCL's VTK viewer, which needs an X display; this draws
 the points with vertex/colour arrays (a VBO, GL_POINTS, glPointSize) in the shared context's
-framebuffer object of the image size, with ``simvid.render.CameraView``'s projection (so a
+framebuffer object of the image size, with ``sim_world.render.CameraView``'s projection (so a
 point lands exactly on the pixel the pinhole model K predicts) and reads the image back.
 
 Viewpoint convention: the *optical* frame of the virtual camera (x right, y down, looking
@@ -14,8 +14,8 @@ import math
 import cv2
 import numpy as np
 
-from simvid.render import CameraView, get_context
-from simvid.transforms import Pose, quat_from_rpy
+from sim_world.render import CameraView, get_context
+from sim_world.transforms import Pose, quat_from_rpy
 
 __all__ = ['PointCloudRenderer', 'COLOR_MODES', 'optical_to_link']
 

@@ -19,9 +19,9 @@ RH (typical phone sensor figures; the Android CDD gives none).
 """
 import math
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Ambient']
 

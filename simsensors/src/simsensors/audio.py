@@ -36,9 +36,9 @@ import weakref
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['AudioScene', 'scene_of', 'Signal', 'FileSignal', 'ToneSignal', 'StreamSignal',
            'AudioSource', 'Microphone', 'read_sound', 'SPEED_OF_SOUND']

@@ -19,9 +19,9 @@ of the standard atmosphere, as Android's SensorManager.getAltitude does).
 """
 import math
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Barometer', 'altitude_from_pressure', 'StepNoise']
 

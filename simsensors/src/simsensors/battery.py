@@ -31,10 +31,10 @@ fields and md5sum; ``powerStateRate`` Hz), ``battery_state`` (sensor_msgs/Batter
 """
 import math
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
-from simvid.plugins.timer import UpdateTimer
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.timer import UpdateTimer
 
 __all__ = ['Battery', 'BatteryModel', 'COMPONENT_POWER', 'component_power']
 

@@ -16,9 +16,9 @@ and ``bluetooth/<device>/state`` (std_msgs/String, latched, on change: ``connect
 """
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 from . import radio_budget as rb
 from .wifi import TransmitterPlugin, transmitters

@@ -12,8 +12,8 @@ kept until another is ``roamHysteresis`` dB stronger) with its power in dBm and 
 0..31 (dBm = -113 + 2 ASU; 99 and dbm NaN when no tower is heard above ``sensitivity``).
 ``cellular/enable`` (std_msgs/Bool) switches the radio (flag ``cellular`` on the power bus).
 """
-from simvid.plugins import register
-from simvid.plugins.params import Param
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
 
 from . import radio_budget as rb
 from .wifi import RadioReceiver, TransmitterPlugin

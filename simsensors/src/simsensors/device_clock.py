@@ -15,9 +15,9 @@ device time, source = the plugin's name), default 1 Hz of sim time.
 """
 import math
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['DeviceClock']
 

@@ -16,8 +16,8 @@ import threading
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['ForceController']
 

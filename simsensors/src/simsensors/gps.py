@@ -26,9 +26,9 @@ import math
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Gps', 'nmea_sentences', 'FAULT_NO_FIX', 'UTC_EPOCH']
 
@@ -152,7 +152,7 @@ class Gps(Sensor):
             lon0 = p.referenceLongitude if p.referenceLongitude is not None \
                 else self.env.get('longitude')
         if lat0 is not None or p.referenceHeading is not None:
-            from simvid.environment import Environment
+            from sim_world.environment import Environment
             e = Environment()
             e.set('latitude', lat0 if lat0 is not None else self.env.get('latitude'))
             e.set('longitude', lon0 if lon0 is not None else self.env.get('longitude'))

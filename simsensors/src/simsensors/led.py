@@ -23,9 +23,9 @@ import math
 import threading
 from collections import deque
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Led', 'LedPattern', 'parse_color', 'argb_rgb', 'ANDROID_COLORS']
 

@@ -44,9 +44,9 @@ import math
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['LightSensor', 'luminance', 'SKY_COLOR']
 
@@ -105,7 +105,7 @@ class LightSensor(Sensor):
             if not self._warned:
                 self._warned = True
                 (getattr(self.world, 'log', None) or log).warning(
-                    '%s: the world has no ray caster (simvid.raycast); lights are not '
+                    '%s: the world has no ray caster (sim_world.raycast); lights are not '
                     'occluded' % self.label)
             return False
         return raycast(origin, direction, dist, ignore=(self.model.name,)) is not None

@@ -31,9 +31,9 @@ import math
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['NfcDevice', 'NfcTag', 'NfcProxy', 'proxy_of', 'sees', 'AXES']
 

@@ -21,10 +21,10 @@ import threading
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
-from simvid.transforms import Pose
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
+from sim_world.transforms import Pose
 
 __all__ = ['Projector', 'image_from_msg', 'pixel_ray', 'pixel_on_plane', 'world_to_pixel']
 

@@ -24,9 +24,9 @@ import logging
 
 import numpy as np
 
-from simvid.plugins import register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Proximity', 'proximity_value']
 
@@ -85,7 +85,7 @@ class Proximity(Sensor):
         if not getattr(self, '_warned', False):
             self._warned = True
             (getattr(self.world, 'log', None) or log).warning(
-                '%s: the world has no ray caster (simvid.raycast); the sensor reports far'
+                '%s: the world has no ray caster (sim_world.raycast); the sensor reports far'
                 % self.label)
 
     def cast(self, state):

@@ -39,9 +39,9 @@ from collections import deque
 
 import numpy as np
 
-from simvid.plugins import PluginError, register
-from simvid.plugins.params import Param
-from simvid.plugins.sensor import Sensor
+from sim_world.plugins import PluginError, register
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Sensor
 
 __all__ = ['TouchScreen', 'PointerTracker', 'DEFAULT_BUTTONS', 'DOWN', 'UP', 'MOVE']
 
@@ -197,7 +197,7 @@ class TouchScreen(Sensor):
 
     def to_pixels(self, q):
         """Display pixels (x, y) of a point in the display link's frame. The image on the
-        +z face has its top at +x and its right at -y of the link (simvid.render.shapes); on
+        +z face has its top at +x and its right at -y of the link (sim_world.render.shapes); on
         the back face the image is mirrored."""
         w, h = self.size
         hx, hy = self.half[0], self.half[1]

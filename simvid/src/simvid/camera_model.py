@@ -1,6 +1,6 @@
 """Pinhole camera math of the sim camera: intrinsics, camera_info, lens distortion applied
 to the image, point clouds from depth. Pure numpy/OpenCV (no GL, no ROS master needed);
-``SimCamera`` ties it to a ``simvid.render.Renderer``.
+``SimCamera`` ties it to a ``sim_world.render.Renderer``.
 
 Conventions (as ROS/OpenCV use them): pixel centres at integer coordinates, u to the
 right, v down; the optical frame has x right, y down, z forward. The camera link of the URDF
@@ -321,7 +321,7 @@ class SimCamera(object):
         self._set(intr)
 
     def view(self, pose):
-        from .render import CameraView
+        from sim_world.render import CameraView
         w, h, fx, fy, cx, cy = self.distorter.render_view_params
         return CameraView(w, h, self.intr.hfov, pose, near=self.near, far=self.far, cx=cx,
                           cy=cy, background=self.background, fx=fx, fy=fy)

@@ -6,12 +6,12 @@ pitch, yaw, as spacenav_node publishes them) are divided by ``linear_scaler`` /
 ``angular_scaler`` (thesis default 100: full deflection moves 1 cm and turns 0.01 rad per
 message), combined into the transform ``movement``, and the new pose is
 ``pose_out = pose_in * movement`` -- the thesis's btTransform product, computed with
-``simvid.transforms`` (tf2 conventions). The pose is read with /gazebo/get_model_state and
+``sim_world.transforms`` (tf2 conventions). The pose is read with /gazebo/get_model_state and
 written with /gazebo/set_model_state.
 """
 import numpy as np
 
-from .transforms import Pose
+from sim_world.transforms import Pose
 
 __all__ = ['movement_from_axes', 'apply_movement', 'CameraMove']
 

@@ -38,7 +38,7 @@ EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
 LAUNCHES = {
-    'office': os.path.join(PKG_ROOT, 'simvid', 'launch', 'office.launch'),
+    'office': os.path.join(PKG_ROOT, 'sim_world', 'launch', 'office.launch'),
 }
 MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
                          # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
@@ -383,7 +383,7 @@ class Runner(object):
 
     def _spawn_more_phones(self):
         for ph in self.sc.phones[1:]:
-            xacro = os.path.join(PKG_ROOT, 'simvid', 'urdf', 'mobile_device.urdf.xacro')
+            xacro = os.path.join(PKG_ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
             self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
                         ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))
 

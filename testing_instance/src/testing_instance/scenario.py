@@ -13,7 +13,7 @@ import yaml
 __all__ = ['ScenarioError', 'Scenario', 'load', 'loads', 'ACTIONS', 'PREDICATE_KEYS',
            'IMAGE_KEYS', 'ENV_NAMES', 'MODES', 'validate']
 
-# environment value names (simvid.environment; Environment.msg)
+# environment value names (sim_world.environment; Environment.msg)
 ENV_NAMES = ('latitude', 'longitude', 'elevation', 'heading', 'north_alpha',
              'magnetic_magnitude', 'magnetic_inclination', 'magnetic_declination',
              'temperature', 'indoor_temperature', 'humidity', 'pressure_offset',

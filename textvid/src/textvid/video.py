@@ -1,6 +1,6 @@
 """Video texture: a virtual display on a link of a model (thesis section 4.3, appendix A).
 
-URDF (both syntaxes of ``simvid.plugins`` load it)::
+URDF (both syntaxes of ``sim_world.plugins`` load it)::
 
     <gazebo>
       <controller:gazebo_ros_video name="gazebo_ros_video_controller"
@@ -38,8 +38,8 @@ import threading
 import numpy as np
 
 from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array
-from simvid.plugins import Plugin, PluginError, register
-from simvid.plugins.params import Param
+from sim_world.plugins import Plugin, PluginError, register
+from sim_world.plugins.params import Param
 
 __all__ = ['VideoTexture', 'VideoPlugin', 'ENCODINGS', 'FACES', 'BLUE', 'DEFAULT_SIZE']
 

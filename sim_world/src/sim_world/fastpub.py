@@ -1,0 +1,185 @@
+"""Publishers for the simulation thread that do not hand the GIL away on every message.
+
+rospy's queued publisher (``queue_size`` set) appends each serialized message to a
+per-subscriber queue and then calls ``time.sleep(0)`` "to yield the rest of the thread
+quantum" (rospy.impl.tcpros_pubsub.QueuedConnection.write_data). In a process whose main
+work is one Python thread stepping the world, that yield hands the GIL to whichever thread
+wants it (socket readers, callbacks, the writer threads) and the world thread waits up to
+the interpreter's switch interval (5 ms) to get it back -- on every /clock tick and every
+image. Profiling sim_world with one 480x800 camera showed this as the largest single cost
+on the ROS side (bench/camera).
+
+:func:`no_yield` makes a publisher's future connections use :class:`NoYieldConnection`:
+the same queue, writer thread and drop-oldest behaviour, without the ``sleep(0)``. The
+writer thread still sends in the background (socket writes release the GIL), so a slow or
+stalled subscriber never blocks the world: at worst it loses the oldest queued messages, as
+with rospy's own queue.
+"""
+import logging
+import threading
+import time
+
+__all__ = ['NoYieldConnection', 'no_yield', 'publisher']
+
+log = logging.getLogger('sim_world.fastpub')
+
+try:  # pragma: no branch - rospy is there in the project environment
+    from rospy.impl.tcpros_pubsub import QueuedConnection as _Queued
+except ImportError:  # pragma: no cover
+    _Queued = object
+
+
+class NoYieldConnection(_Queued):
+    """rospy's QueuedConnection without the ``time.sleep(0)`` after each message while the
+    writer thread keeps up; once half the queue is waiting (the writer is starved of the
+    GIL) it yields like rospy, so messages are not dropped just because the publishing
+    thread never lets go. ``dropped`` counts the messages the full queue lost."""
+    dropped = 0
+
+    def write_data(self, data):
+        with self._lock:
+            if self._error:
+                error, self._error = self._error, None
+                raise error
+            if self._queue_size > 0 and len(self._queue) >= self._queue_size:
+                del self._queue[0]
+                self.dropped += 1
+            self._queue.append(data)
+            self._cond_data_available.notify()
+            behind = len(self._queue) > max(1, self._queue_size // 2)
+        if behind:
+            time.sleep(0)
+        return True
+
+
+class _LocalConnection(object):
+    """A subscriber in this very node: rospy would send it the serialized bytes over TCP
+    loopback and deserialize them in its receive thread. Here the bytes are dropped and the
+    publisher hands the message object over (:class:`_LocalDelivery`)."""
+
+    def __init__(self, connection, topic):
+        self._connection = connection
+        self._topic = topic
+
+    def __getattr__(self, name):
+        if name.startswith('__'):
+            raise AttributeError(name)
+        return getattr(self._connection, name)
+
+    def write_data(self, data):
+        if _subscriber_impl(self._topic) is None:        # the local subscriber is gone
+            from rospy.exceptions import TransportTerminated
+            raise TransportTerminated('local subscriber of %s closed' % self._topic)
+        return True
+
+
+def _subscriber_impl(topic):
+    from rospy.impl.registration import get_topic_manager
+    tm = get_topic_manager()
+    sub = tm.get_subscriber_impl(topic) if tm is not None else None
+    if sub is None or getattr(sub, 'closed', False):
+        return None
+    return sub
+
+
+class _LocalDelivery(object):
+    """Messages for the in-process subscribers of one topic, handed over as objects (no
+    serialization, no socket) and run through their callbacks in a thread of their own,
+    as rospy runs callbacks in a receive thread. The subscriber's queue_size holds: the
+    oldest messages are dropped when it is full."""
+
+    def __init__(self, topic, inline=False):
+        self.topic = topic
+        self.inline = inline
+        self.cond = threading.Condition(threading.Lock())
+        self.queue = []
+        self.thread = None
+        self.delivered = 0
+
+    def put(self, msg):
+        sub = _subscriber_impl(self.topic)
+        if sub is None:
+            return
+        if self.inline:
+            self._deliver(sub, (msg,))
+            return
+        qs = sub.queue_size or 0
+        with self.cond:
+            self.queue.append(msg)
+            if qs > 0 and len(self.queue) > qs:
+                del self.queue[:len(self.queue) - qs]
+            self.cond.notify()
+            if self.thread is None:
+                self.thread = threading.Thread(target=self._run, daemon=True,
+                                               name='local delivery %s' % self.topic)
+                self.thread.start()
+
+    def _run(self):
+        import rospy
+        while not rospy.is_shutdown():
+            with self.cond:
+                while not self.queue:
+                    self.cond.wait(1.0)
+                    if rospy.is_shutdown():
+                        return
+                msgs, self.queue = self.queue, []
+            sub = _subscriber_impl(self.topic)
+            if sub is not None:
+                self._deliver(sub, msgs)
+
+    def _deliver(self, sub, msgs):
+        for msg in msgs:
+            for cb, cb_args in sub.callbacks:
+                sub._invoke_callback(msg, cb, cb_args)
+            self.delivered += 1
+
+
+def no_yield(pub, inline_local=False):
+    """Make ``pub`` (a rospy.Publisher created with a queue_size) queue its messages
+    through NoYieldConnection for every remote subscriber that connects from now on, and
+    hand messages to subscribers in this same node as objects (no serialization, no
+    socket; a latched topic keeps rospy's path). With ``inline_local`` those subscribers'
+    callbacks run in the publishing thread itself (for trivial callbacks on frequent
+    messages, such as rospy's own /clock subscriber in sim_world: waking a delivery thread
+    per message would cost more than the callback). Returns pub. A topic whose publisher
+    implementation already has connections, or was created without a queue, is left as
+    it is."""
+    import rospy
+    impl = getattr(pub, 'impl', None)
+    qs = getattr(impl, 'queue_size', None)
+    if impl is None or qs is None or getattr(impl, '_no_yield', False) or impl.connections:
+        return pub
+    orig_add = impl.add_connection
+    topic = impl.resolved_name
+    local = _LocalDelivery(topic, inline_local) if not impl.is_latch else None
+
+    def add_connection(c):
+        if local is not None and getattr(c, 'endpoint_id', None) == rospy.get_caller_id():
+            return orig_add(_LocalConnection(c, topic))
+        return orig_add(NoYieldConnection(c, qs))
+    impl.queue_size = None          # the original add_connection must not wrap it again
+    impl.add_connection = add_connection
+    impl._no_yield = True
+    if local is not None:
+        orig_publish = pub.publish
+
+        def publish(*args, **kwds):
+            orig_publish(*args, **kwds)
+            if any(isinstance(c, _LocalConnection) for c in impl.connections):
+                if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):
+                    msg = args[0]
+                else:
+                    from rospy.msg import args_kwds_to_message
+                    msg = args_kwds_to_message(pub.data_class, args, kwds)
+                local.put(msg)
+        pub.publish = publish
+        pub.local_delivery = local
+    return pub
+
+
+def publisher(topic, msg_type, queue_size=10, inline_local=False, **kw):
+    """rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw) passed through
+    :func:`no_yield`."""
+    import rospy
+    return no_yield(rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw),
+                    inline_local=inline_local)

@@ -1,0 +1,365 @@
+"""The Gazebo-compatible ROS API of sim_world, and its run loop.
+
+Services (gazebo_msgs-compatible types from this package, same md5sums):
+  /gazebo/get_model_state  /gazebo/set_model_state  /gazebo/spawn_urdf_model
+  /gazebo/spawn_sdf_model  /gazebo/delete_model     /gazebo/pause_physics
+  /gazebo/unpause_physics  /gazebo/reset_world      /gazebo/reset_simulation
+  /gazebo/step_world (mobile_device_sim/StepWorld: run until a sim time, then pause; the
+  testing instance's lockstep)
+Topics: /clock, /gazebo/model_states, /gazebo/set_model_state (subscriber), /tf, /tf_static.
+
+Every service answers ``success: false`` with a ``status_message`` naming the bad input
+and logs one line; the world keeps running with its models.
+"""
+import math
+import threading
+import time
+
+import numpy as np
+import rospy
+from geometry_msgs.msg import Pose as PoseMsg
+from geometry_msgs.msg import TransformStamped, Twist
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Empty, EmptyResponse
+from tf2_msgs.msg import TFMessage
+
+from mobile_device_sim.msg import ModelState, ModelStates
+from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelState,
+                                   GetModelStateResponse, SetModelState, SetModelStateResponse,
+                                   SpawnModel, SpawnModelResponse, StepWorld,
+                                   StepWorldResponse)
+
+from . import fastpub
+from .model import ModelError
+from .sdf import parse_sdf_model
+from .transforms import InvalidPose, Pose
+from .urdf import parse_urdf
+
+__all__ = ['GazeboRosApi', 'run_loop', 'tf_frame']
+
+
+def _vec3(v):
+    return np.array([v.x, v.y, v.z], float)
+
+
+def _twist_msg(lin, ang):
+    t = Twist()
+    t.linear.x, t.linear.y, t.linear.z = (float(x) for x in lin)
+    t.angular.x, t.angular.y, t.angular.z = (float(x) for x in ang)
+    return t
+
+
+def tf_frame(model, link):
+    """tf frame of a link: the link name for URDF robots (prefixed with the robot namespace
+    if spawned in one), '<model>/<link>' for world-file models."""
+    prefix = model.tf_prefix
+    if prefix is None:
+        prefix = model.robot_namespace.strip('/')
+    return '%s/%s' % (prefix, link) if prefix else link
+
+
+def _transform(parent, child, pose, stamp):
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = \
+        (float(v) for v in pose.p)
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+     t.transform.rotation.w) = (float(v) for v in pose.q)
+    return t
+
+
+class GazeboRosApi(object):
+    def __init__(self, world, paused=False):
+        self.world = world
+        self.paused = paused
+        self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
+        self.step_until = None                   # step_world: pause at this sim time
+        self.step_done = threading.Event()
+        self._get_seq = 0
+        self._last_tf_stamp = None
+        self._static_tf = {}
+        # /clock goes out before every plugin tick: queued without rospy's per-message GIL
+        # yield (sim_world.fastpub), which cost the world thread more than the message itself;
+        # this node's own /clock subscriber (use_sim_time) is called directly
+        self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10, inline_local=True)
+        self.states_pub = rospy.Publisher('/gazebo/model_states', ModelStates, queue_size=1)
+        self.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
+        self.tf_static_pub = rospy.Publisher('/tf_static', TFMessage, queue_size=100, latch=True)
+        self._last_clock = None
+        # /clock goes out right before sensors publish, so a subscriber's rospy time is the
+        # frame's stamp when the frame arrives (rostest's hztest measures rates that way)
+        world.before_plugin_updates.append(lambda t: self.publish_clock())
+        world.on_model_added.append(self._model_added)
+        world.on_model_deleted.append(self._model_deleted)
+        for m in world.models.values():
+            self._model_added(m)
+        self.services = [
+            rospy.Service('/gazebo/get_model_state', GetModelState, self.get_model_state),
+            rospy.Service('/gazebo/set_model_state', SetModelState, self.set_model_state),
+            rospy.Service('/gazebo/spawn_urdf_model', SpawnModel, self.spawn_urdf_model),
+            rospy.Service('/gazebo/spawn_sdf_model', SpawnModel, self.spawn_sdf_model),
+            rospy.Service('/gazebo/delete_model', DeleteModel, self.delete_model),
+            rospy.Service('/gazebo/pause_physics', Empty, self.pause),
+            rospy.Service('/gazebo/unpause_physics', Empty, self.unpause),
+            rospy.Service('/gazebo/reset_world', Empty, self.reset_world),
+            rospy.Service('/gazebo/reset_simulation', Empty, self.reset_simulation),
+            rospy.Service('/gazebo/step_world', StepWorld, self.step_world),
+        ]
+        self.set_sub = rospy.Subscriber('/gazebo/set_model_state', ModelState,
+                                        self._set_state_topic, queue_size=100)
+
+    # -- services --------------------------------------------------------------------------
+    def get_model_state(self, req):
+        res = GetModelStateResponse()
+        self._get_seq += 1
+        res.header.seq = self._get_seq
+        res.header.frame_id = req.relative_entity_name
+        with self.world.lock:
+            res.header.stamp = self.world.ros_now()
+            try:
+                pose, lin, ang = self.world.get_state(req.model_name, req.relative_entity_name)
+            except KeyError as e:
+                res.success = False
+                res.status_message = 'GetModelState: %s' % e.args[0]
+                rospy.logwarn(res.status_message)
+                return res
+        res.pose = pose.to_msg()
+        res.twist = _twist_msg(lin, ang)
+        res.success = True
+        res.status_message = 'GetModelState: got properties'
+        return res
+
+    def _apply_state(self, state):
+        try:
+            pose = Pose.from_msg(state.pose)
+        except InvalidPose as e:
+            return False, 'SetModelState: refusing pose of model %r: %s' % (state.model_name, e)
+        lin, ang = _vec3(state.twist.linear), _vec3(state.twist.angular)
+        try:
+            with self.world.lock:
+                self.world.set_state(state.model_name, pose, lin, ang, state.reference_frame)
+        except KeyError as e:
+            return False, 'SetModelState: %s' % e.args[0]
+        except (InvalidPose, ModelError) as e:
+            return False, 'SetModelState: model %r: %s' % (state.model_name, e)
+        return True, 'SetModelState: set model state done'
+
+    def set_model_state(self, req):
+        ok, msg = self._apply_state(req.model_state)
+        if not ok:
+            rospy.logwarn(msg)
+        return SetModelStateResponse(ok, msg)
+
+    def _set_state_topic(self, state):
+        ok, msg = self._apply_state(state)
+        if not ok:
+            rospy.logwarn(msg)
+
+    def _spawn(self, req, parse, kind):
+        name = req.model_name
+        if not name:
+            return SpawnModelResponse(False, 'SpawnModel: model_name is empty')
+        try:
+            initial = Pose.from_msg(req.initial_pose)
+        except InvalidPose as e:
+            return self._spawn_fail('SpawnModel: model %r: bad initial_pose: %s' % (name, e))
+        with self.world.lock:
+            if name in self.world.models:
+                return self._spawn_fail('SpawnModel: a model named %r already exists' % name)
+            try:
+                model = parse(req)
+                if req.reference_frame not in ('', 'world', 'map', '/world', '/map'):
+                    frame, _, _ = self.world.entity_state(req.reference_frame)
+                    initial = frame * initial
+                model.pose = initial * model.pose if kind == 'sdf' else initial
+                self.world.add_model(model)
+            except (ModelError, InvalidPose) as e:
+                return self._spawn_fail('SpawnModel: model %r not spawned: %s' % (name, e))
+            except KeyError as e:
+                return self._spawn_fail('SpawnModel: model %r not spawned: reference_frame: %s'
+                                        % (name, e.args[0]))
+        rospy.loginfo('spawned model %s (%d links, %d plugins)', name, len(model.links),
+                      len(model.plugins))
+        return SpawnModelResponse(True, 'SpawnModel: Successfully spawned entity')
+
+    def _spawn_fail(self, msg):
+        rospy.logerr(msg)
+        return SpawnModelResponse(False, msg)
+
+    def spawn_urdf_model(self, req):
+        def parse(r):
+            m = parse_urdf(r.model_xml, name=r.model_name,
+                           robot_namespace=r.robot_namespace.strip('/'))
+            m.tf_prefix = r.robot_namespace.strip('/')
+            return m
+        return self._spawn(req, parse, 'urdf')
+
+    def spawn_sdf_model(self, req):
+        def parse(r):
+            m = parse_sdf_model(r.model_xml)
+            m.name = r.model_name
+            m.robot_namespace = r.robot_namespace.strip('/')
+            return m
+        return self._spawn(req, parse, 'sdf')
+
+    def delete_model(self, req):
+        try:
+            with self.world.lock:
+                self.world.delete_model(req.model_name)
+        except KeyError as e:
+            msg = 'DeleteModel: %s' % e.args[0]
+            rospy.logwarn(msg)
+            return DeleteModelResponse(False, msg)
+        return DeleteModelResponse(True, 'DeleteModel: successfully deleted model')
+
+    def pause(self, _req):
+        self.paused = True
+        return EmptyResponse()
+
+    def unpause(self, _req):
+        self.paused = False
+        self.reset_anchor.set()
+        return EmptyResponse()
+
+    def step_world(self, req):
+        """Run until sim time req.until (the first step at or after it), then pause."""
+        if self.step_until is not None:
+            return StepWorldResponse(False, 'StepWorld: another step_world call is running',
+                                     self.world.sim_time)
+        until = float(req.until)
+        if not math.isfinite(until):
+            return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
+                                     % until, self.world.sim_time)
+        self.step_done.clear()
+        self.step_until = until
+        self.paused = False
+        self.reset_anchor.set()
+        while not self.step_done.wait(0.1):
+            if rospy.is_shutdown():
+                break
+        self.step_until = None
+        return StepWorldResponse(True, 'StepWorld: paused at %.6f' % self.world.sim_time,
+                                 self.world.sim_time)
+
+    def _step_reached(self):
+        """Run-loop side of step_world: pause once sim time reached the target."""
+        until = self.step_until
+        if until is not None and not self.step_done.is_set() and \
+                self.world.sim_time + 0.5 * self.world.step_size >= until:
+            self.paused = True
+            self.publish()
+            self.step_done.set()
+            return True
+        return False
+
+    def reset_world(self, _req):
+        self.world.reset(time=False)
+        self.reset_anchor.set()
+        return EmptyResponse()
+
+    def reset_simulation(self, _req):
+        self.world.reset(time=True)
+        self.reset_anchor.set()
+        return EmptyResponse()
+
+    # -- topics ----------------------------------------------------------------------------
+    def _model_added(self, model):
+        if model.tf_prefix is None and model.static:
+            model.tf_prefix = model.name
+        stamp = self.world.ros_now()
+        for j in model.joints:
+            self._static_tf[(model.name, j.child)] = _transform(
+                tf_frame(model, j.parent), tf_frame(model, j.child), j.origin, stamp)
+        if model.static:
+            self._static_tf[(model.name, model.root_link)] = _transform(
+                'world', tf_frame(model, model.root_link), model.pose, stamp)
+        self.tf_static_pub.publish(TFMessage(list(self._static_tf.values())))
+
+    def _model_deleted(self, name):
+        for k in [k for k in self._static_tf if k[0] == name]:
+            del self._static_tf[k]
+        self.tf_static_pub.publish(TFMessage(list(self._static_tf.values())))
+
+    def publish_clock(self, stamp=None, repeat=False):
+        """Publish /clock; ``repeat`` sends it even when sim time has not moved (paused)."""
+        stamp = stamp if stamp is not None else self.world.ros_now()
+        if repeat or stamp != self._last_clock:
+            self._last_clock = stamp
+            self.clock_pub.publish(Clock(stamp))
+
+    def publish(self):
+        """Publish /clock, /gazebo/model_states and /tf of the dynamic models' roots. The
+        states and transforms are only gathered while someone subscribes to them; /clock is
+        repeated unchanged only while paused (it goes out with every plugin tick anyway)."""
+        w = self.world
+        want_states = self.states_pub.get_num_connections() > 0
+        want_tf = self.tf_pub.get_num_connections() > 0
+        with w.lock:
+            stamp = w.ros_now()
+            states = ModelStates()
+            tfs = []
+            if want_states or (want_tf and stamp != self._last_tf_stamp):
+                for name, model in w.models.items():
+                    pose, lin, ang = w.model_state(name)
+                    if want_states:
+                        states.name.append(name)
+                        states.pose.append(pose.to_msg(PoseMsg()))
+                        states.twist.append(_twist_msg(lin, ang))
+                    if want_tf and not model.static:
+                        tfs.append(_transform('world', tf_frame(model, model.root_link), pose,
+                                              stamp))
+        self.publish_clock(stamp, repeat=bool(self.paused))
+        if want_states:
+            self.states_pub.publish(states)
+        if tfs and stamp != self._last_tf_stamp:   # tf2 rejects repeated stamps (paused)
+            self._last_tf_stamp = stamp
+            self.tf_pub.publish(TFMessage(tfs))
+
+
+def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds=0.005,
+             should_stop=None):
+    """Step the world until ROS shuts down, paced to ``real_time_factor`` (0 = as fast as
+    possible), publishing the API's topics at ``publish_rate`` Hz of wall time."""
+    should_stop = should_stop or rospy.is_shutdown
+    mono = time.monotonic
+    rtf = float(real_time_factor)
+    wall0, sim0 = mono(), world.sim_time
+    next_pub = wall0
+    pub_period = 1.0 / publish_rate if publish_rate > 0 else math.inf
+    while not should_stop():
+        now = mono()
+        if api.reset_anchor.is_set():
+            api.reset_anchor.clear()
+            wall0, sim0 = now, world.sim_time
+        if api.step_until is not None and api._step_reached():
+            continue
+        if api.paused:
+            if now >= next_pub:
+                api.publish()
+                next_pub = now + max(pub_period, 0.1)
+            time.sleep(0.01)
+            wall0, sim0 = mono(), world.sim_time
+            continue
+        stop = api.step_until
+        stop = math.inf if stop is None else stop - 0.5 * world.step_size
+        with world.lock:
+            end = now + batch_seconds
+            if rtf > 0:
+                target_sim = min(sim0 + (end - wall0) * rtf, stop)
+                while world.sim_time < target_sim and mono() < end:
+                    world.step()
+            else:
+                while world.sim_time < stop and mono() < end:
+                    world.step()
+        now = mono()
+        if now >= next_pub:
+            api.publish()
+            next_pub = max(next_pub + pub_period, now)
+        if rtf > 0:
+            ahead = (world.sim_time - sim0) / rtf - (now - wall0)
+            if ahead > 0:
+                time.sleep(min(ahead, 0.02))
+            elif ahead < -1.0:
+                wall0, sim0 = now, world.sim_time   # fell far behind: do not try to catch up

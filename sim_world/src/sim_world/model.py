@@ -1,0 +1,339 @@
+"""The world's data model: models made of links, joints, visuals, collisions, plugins.
+
+Loaders (``sim_world.urdf`` for URDF/xacro, ``sim_world.sdf`` for world files) build these
+objects; the physics backends, the renderer and the plugins read them. Poses of visuals,
+collisions and inertials are relative to their link; a link's pose in the model follows
+from the joint tree (``Model.link_poses``). Units are SI (REP 103).
+"""
+import os
+
+import numpy as np
+
+from .transforms import Pose
+
+__all__ = ['ModelError', 'parse_floats', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
+           'Joint', 'PluginSpec', 'Light', 'Model', 'cuboid_inertia', 'cylinder_inertia',
+           'sphere_inertia']
+
+
+class ModelError(ValueError):
+    """A model description that cannot be loaded; the message names the problem."""
+
+
+def parse_floats(text, n, what):
+    """n finite numbers from a whitespace-separated text (URDF attributes, SDF elements);
+    ModelError naming ``what`` otherwise. The one number-list parser of both model formats."""
+    try:
+        vals = np.array([float(v) for v in (text or '').split()])
+    except ValueError:
+        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
+    if vals.shape != (n,):
+        raise ModelError('%s: %r is not %d numbers' % (what, text, n))
+    if not np.all(np.isfinite(vals)):
+        raise ModelError('%s: %r has a non-finite number' % (what, text))
+    return vals
+
+
+class Geometry(object):
+    """A shape. kind: 'box' (size xyz), 'cylinder' (radius, length along z),
+    'sphere' (radius), 'plane' (normal, size xy), 'mesh' (filename, scale)."""
+    KINDS = ('box', 'cylinder', 'sphere', 'plane', 'mesh')
+
+    def __init__(self, kind, size=None, radius=0.0, length=0.0, filename=None,
+                 scale=(1.0, 1.0, 1.0), normal=(0.0, 0.0, 1.0)):
+        if kind not in self.KINDS:
+            raise ModelError('unknown geometry %r' % kind)
+        self.kind = kind
+        self.size = np.asarray(size if size is not None else (0.0, 0.0, 0.0), dtype=float)
+        self.radius = float(radius)
+        self.length = float(length)
+        self.filename = filename
+        self.scale = np.asarray(scale, dtype=float)
+        self.normal = np.asarray(normal, dtype=float)
+        self._check()
+
+    def _check(self):
+        vals = list(self.size) + [self.radius, self.length] + list(self.scale)
+        if not all(np.isfinite(vals)):
+            raise ModelError('%s geometry has a non-finite dimension' % self.kind)
+        if self.kind == 'box' and (self.size.shape != (3,) or np.any(self.size <= 0)):
+            raise ModelError('box size must be three positive numbers, got %s' % list(self.size))
+        if self.kind in ('sphere', 'cylinder') and self.radius <= 0:
+            raise ModelError('%s radius must be positive, got %g' % (self.kind, self.radius))
+        if self.kind == 'cylinder' and self.length <= 0:
+            raise ModelError('cylinder length must be positive, got %g' % self.length)
+        if self.kind == 'mesh' and not self.filename:
+            raise ModelError('mesh geometry without a filename')
+
+    def __repr__(self):
+        if self.kind == 'box':
+            return 'Geometry(box %s)' % list(self.size)
+        if self.kind == 'mesh':
+            return 'Geometry(mesh %s)' % self.filename
+        return 'Geometry(%s r=%g l=%g)' % (self.kind, self.radius, self.length)
+
+
+# Colours of the Gazebo materials the thesis's models name (Gazebo/Black ...).
+GAZEBO_MATERIALS = {
+    'Gazebo/Black': (0.0, 0.0, 0.0, 1.0), 'Gazebo/White': (1.0, 1.0, 1.0, 1.0),
+    'Gazebo/Grey': (0.7, 0.7, 0.7, 1.0), 'Gazebo/Gray': (0.7, 0.7, 0.7, 1.0),
+    'Gazebo/DarkGrey': (0.35, 0.35, 0.35, 1.0), 'Gazebo/Red': (1.0, 0.0, 0.0, 1.0),
+    'Gazebo/Green': (0.0, 1.0, 0.0, 1.0), 'Gazebo/Blue': (0.0, 0.0, 1.0, 1.0),
+    'Gazebo/Yellow': (1.0, 1.0, 0.0, 1.0), 'Gazebo/Wood': (0.55, 0.38, 0.22, 1.0),
+    'Gazebo/WoodPallet': (0.6, 0.45, 0.3, 1.0), 'Gazebo/Orange': (1.0, 0.5, 0.0, 1.0),
+    'Gazebo/Purple': (0.5, 0.0, 0.5, 1.0), 'Gazebo/Turquoise': (0.0, 0.8, 0.8, 1.0),
+}
+
+
+class Material(object):
+    """Colour (rgba 0..1), optional texture image path, and whether it is lit."""
+
+    def __init__(self, rgba=(0.8, 0.8, 0.8, 1.0), texture=None, name=None, lit=True):
+        self.rgba = np.asarray(rgba, dtype=float)
+        self.texture = texture
+        self.name = name
+        self.lit = lit
+
+    @classmethod
+    def named(cls, name):
+        return cls(GAZEBO_MATERIALS.get(name, (0.8, 0.8, 0.8, 1.0)), name=name)
+
+    def __repr__(self):
+        return 'Material(%s, rgba=%s, texture=%s)' % (self.name, list(self.rgba), self.texture)
+
+
+class Visual(object):
+    def __init__(self, geometry, origin=None, material=None, name=''):
+        self.geometry = geometry
+        self.origin = origin or Pose()
+        self.material = material or Material()
+        self.name = name
+
+
+class Collision(object):
+    def __init__(self, geometry, origin=None, name='', material=None):
+        self.geometry = geometry
+        self.origin = origin or Pose()
+        self.name = name
+        self.material = material      # radio material name (sim_world.raycast), or None
+
+
+class Inertial(object):
+    """Mass (kg), centre of mass pose in the link, inertia tensor (kg m^2) in that frame."""
+
+    def __init__(self, mass=1.0, origin=None, ixx=1e-3, ixy=0.0, ixz=0.0, iyy=1e-3,
+                 iyz=0.0, izz=1e-3):
+        self.mass = float(mass)
+        self.origin = origin or Pose()
+        self.inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], float)
+        if not (np.isfinite(self.mass) and self.mass > 0):
+            raise ModelError('inertial mass must be positive, got %r' % mass)
+        if not np.all(np.isfinite(self.inertia)):
+            raise ModelError('inertia has a non-finite entry')
+
+
+def cuboid_inertia(mass, sx, sy, sz):
+    """(ixx, iyy, izz) of a solid cuboid with edge lengths sx, sy, sz along x, y, z.
+
+    This is the thesis's equation 3.2. The thesis's appendix A writes the Nexus S as a box
+    of size (height, width, depth) = (0.1239, 0.063, 0.01088) but takes ixx from height and
+    depth, i.e. it treats the long edge as the y axis: cuboid_inertia(0.129, 0.063, 0.1239,
+    0.01088) gives its numbers 0.000166, 0.000044, 0.000208.
+    """
+    return (mass / 12.0 * (sy * sy + sz * sz),
+            mass / 12.0 * (sx * sx + sz * sz),
+            mass / 12.0 * (sx * sx + sy * sy))
+
+
+def cylinder_inertia(mass, radius, length):
+    i = mass / 12.0 * (3 * radius * radius + length * length)
+    return (i, i, mass * radius * radius / 2.0)
+
+
+def sphere_inertia(mass, radius):
+    i = 2.0 / 5.0 * mass * radius * radius
+    return (i, i, i)
+
+
+class Link(object):
+    def __init__(self, name, inertial=None, visuals=None, collisions=None, gravity=True):
+        self.name = name
+        self.inertial = inertial
+        self.visuals = visuals or []
+        self.collisions = collisions or []
+        self.gravity = gravity          # False for <turnGravityOff>true</turnGravityOff>
+        self.self_collide = False
+
+
+class Joint(object):
+    TYPES = ('fixed', 'revolute', 'continuous', 'prismatic', 'floating', 'planar')
+
+    def __init__(self, name, type, parent, child, origin=None, axis=(1.0, 0.0, 0.0)):
+        if type not in self.TYPES:
+            raise ModelError('joint %r has unknown type %r' % (name, type))
+        self.name = name
+        self.type = type
+        self.parent = parent
+        self.child = child
+        self.origin = origin or Pose()
+        self.axis = np.asarray(axis, dtype=float)
+
+
+class PluginSpec(object):
+    """A plugin the model declares (Gazebo classic ``<plugin filename=...>`` or the 2011
+    ``<controller:xxx plugin="lib....so">``).
+
+    filename: the library name ('libgazebo_ros_camera.so'); name: the instance name;
+    element: the plugin/controller XML element (xml.etree) holding its parameters;
+    sensor: the enclosing sensor element (or None) with imageSize, updateRate, hfov ...;
+    sensor_type: 'camera', 'imu' ... or None; link: the link named by
+    ``<gazebo reference="...">`` (or None for a model plugin).
+    """
+
+    def __init__(self, filename, name='', element=None, sensor=None, sensor_type=None,
+                 link=None):
+        self.filename = filename
+        self.name = name
+        self.element = element
+        self.sensor = sensor
+        self.sensor_type = sensor_type
+        self.link = link
+
+    def param(self, *names, **kw):
+        """Text of the first child element (of the plugin, then of the sensor) with one of
+        ``names``; ``default`` when none is present."""
+        for parent in (self.element, self.sensor):
+            if parent is None:
+                continue
+            for n in names:
+                for child in parent:
+                    if _local(child.tag) == n and child.text is not None:
+                        return child.text.strip()
+        return kw.get('default')
+
+    def __repr__(self):
+        return 'PluginSpec(%s, name=%r, link=%r, sensor=%r)' % (
+            self.filename, self.name, self.link, self.sensor_type)
+
+
+def _local(tag):
+    """Tag name without namespace or 'prefix:' part."""
+    if not isinstance(tag, str):
+        return ''
+    if '}' in tag:
+        tag = tag.split('}', 1)[1]
+    return tag.split(':')[-1]
+
+
+class Light(object):
+    def __init__(self, name, kind='directional', pose=None, diffuse=(0.8, 0.8, 0.8, 1.0),
+                 specular=(0.2, 0.2, 0.2, 1.0), direction=(0.0, 0.0, -1.0),
+                 attenuation=(1.0, 0.0, 0.0), range=20.0):
+        self.name = name
+        self.kind = kind  # 'directional', 'point', 'spot'
+        self.pose = pose or Pose()
+        self.diffuse = np.asarray(diffuse, float)
+        self.specular = np.asarray(specular, float)
+        self.direction = np.asarray(direction, float)
+        self.attenuation = attenuation
+        self.range = range
+
+
+class Model(object):
+    """A named set of links connected by joints, with a pose of its root link in the world."""
+
+    def __init__(self, name, links=None, joints=None, pose=None, static=False, plugins=None,
+                 base_dir=None, robot_namespace=''):
+        self.name = name
+        self.links = links or {}            # name -> Link (insertion ordered)
+        self.joints = joints or []
+        self.pose = pose or Pose()           # world pose of the root link
+        self.static = static
+        self.plugins = plugins or []         # [PluginSpec]
+        self.base_dir = base_dir or os.getcwd()   # for relative mesh/texture paths
+        self.robot_namespace = robot_namespace
+        self.tf_prefix = None    # tf frame prefix; None: the robot namespace (see gazebo_api)
+        self.source_xml = None
+
+    @property
+    def root_link(self):
+        children = set(j.child for j in self.joints)
+        roots = [n for n in self.links if n not in children]
+        if not roots:
+            raise ModelError('model %r has no root link (joint loop?)' % self.name)
+        return roots[0]
+
+    def validate(self):
+        if not self.links:
+            raise ModelError('model %r has no links' % self.name)
+        names = set()
+        for j in self.joints:
+            if j.parent not in self.links:
+                raise ModelError('joint %r names unknown parent link %r' % (j.name, j.parent))
+            if j.child not in self.links:
+                raise ModelError('joint %r names unknown child link %r' % (j.name, j.child))
+            if j.child in names:
+                raise ModelError('link %r is the child of two joints' % j.child)
+            names.add(j.child)
+        roots = [n for n in self.links if n not in names]
+        if len(roots) != 1:
+            raise ModelError('model %r must have exactly one root link, has %d: %s'
+                             % (self.name, len(roots), roots))
+        self.link_poses()  # detects loops / unreachable links
+        self.resolve_paths()
+        for p in self.plugins:
+            if p.link is not None and p.link not in self.links:
+                raise ModelError('<gazebo reference="%s"> names an unknown link of model %r'
+                                 % (p.link, self.name))
+        return self
+
+    def link_poses(self):
+        """{link name: pose of the link in the model (root link) frame}, from joint origins
+        at their zero position."""
+        poses = {self.root_link: Pose()}
+        by_parent = {}
+        for j in self.joints:
+            by_parent.setdefault(j.parent, []).append(j)
+        stack = [self.root_link]
+        while stack:
+            parent = stack.pop()
+            for j in by_parent.get(parent, []):
+                if j.child in poses:
+                    raise ModelError('joint loop at link %r' % j.child)
+                poses[j.child] = poses[parent] * j.origin
+                stack.append(j.child)
+        missing = set(self.links) - set(poses)
+        if missing:
+            raise ModelError('links not connected to the root: %s' % sorted(missing))
+        return poses
+
+    def resolve_paths(self):
+        """Make every mesh and texture reference an absolute file path (idempotent)."""
+        for link in self.links.values():
+            for v in link.visuals:
+                if v.geometry.kind == 'mesh':
+                    v.geometry.filename = self.resolve_path(v.geometry.filename)
+                if v.material.texture:
+                    v.material.texture = self.resolve_path(v.material.texture)
+            for c in link.collisions:
+                if c.geometry.kind == 'mesh':
+                    c.geometry.filename = self.resolve_path(c.geometry.filename)
+
+    def resolve_path(self, path):
+        """Absolute path of a mesh/texture reference (file://, package://, relative)."""
+        if path is None:
+            return None
+        if path.startswith('file://'):
+            path = path[len('file://'):]
+        if path.startswith('package://'):
+            pkg, _, rest = path[len('package://'):].partition('/')
+            try:
+                import rospkg
+                return os.path.join(rospkg.RosPack().get_path(pkg), rest)
+            except Exception:  # noqa: BLE001 - rospkg raises various errors
+                return os.path.join(self.base_dir, rest)
+        if path.startswith('model://'):
+            return os.path.join(self.base_dir, path[len('model://'):])
+        if not os.path.isabs(path):
+            return os.path.normpath(os.path.join(self.base_dir, path))
+        return path

@@ -1,0 +1,270 @@
+"""World plugins: one registry, one lifecycle, one place to add a sensor.
+
+A plugin is a class registered under the library file names a URDF uses for it, in both
+syntaxes the simulator reads::
+
+    <!-- 2011, thesis appendix A -->
+    <controller:gazebo_ros_camera name="c" plugin="libgazebo_ros_camera.so"> ...
+    <!-- Gazebo classic -->
+    <plugin name="c" filename="libgazebo_ros_camera.so"> ...
+
+Lifecycle, driven by ``sim_world.world.World``:
+
+1. ``cls(spec, model, world)``: spec is a ``sim_world.model.PluginSpec`` (its ``param()``
+   reads the plugin's and the enclosing sensor's parameters), model the ``Model`` it
+   belongs to, world the running ``World``.
+2. ``load()``: read parameters, create ROS interfaces. Raise ``PluginError`` with a clear
+   message for bad parameters; the world logs it as one line and keeps the model.
+3. ``update(sim_time)``: called when sim time reaches the plugin's next period
+   (``update_rate`` Hz of *sim* time; 0 = every world step), whatever the wall clock does.
+4. ``renderer_created(renderer)`` once, when the first camera creates the renderer;
+   ``reset()`` on /gazebo/reset_world, ``shutdown()`` when the model is deleted.
+
+What plugins may use of the world: ``world.sim_time``, ``world.ros_now()`` (rospy.Time
+of the sim time), ``world.link_pose(model_name, link_name)`` (Pose in the world),
+``world.renderer`` (the one offscreen renderer, created on first use), ``world.models``,
+``world.ros_enabled`` (False in unit tests without a roscore).
+
+Register a plugin with ``@register('libgazebo_ros_foo.so')``. Plugin modules are found,
+not listed: the registry imports the modules of this package, and of every stack of the
+repository (``<stack>/src/<package>/``) whose package ``__init__`` says where its plugins are:
+``PLUGIN_MODULES = ['textvid.video']`` (its own modules) or ``PLUGIN_PACKAGE = True`` (every
+module of the package whose name does not start with ``_``). Imports happen on the first
+lookup; a module that fails to import costs one warning, not the world.
+
+Sensors are declared on ``sim_world.plugins.sensor.Sensor`` (parameters, one update timer, error
+models, the world's seeded generators); every plugin's schedule is an ``UpdateTimer``.
+"""
+import glob
+import importlib
+import logging
+import os
+import pkgutil
+import sys
+
+from .timer import UpdateTimer
+
+__all__ = ['Plugin', 'PluginError', 'register', 'lookup', 'create', 'registered_names',
+           'plugin_modules']
+
+log = logging.getLogger('sim_world.plugins')
+
+#: the repository root (<root>/sim_world/src/sim_world/plugins/__init__.py)
+ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                     '..', '..', '..', '..'))
+
+_REGISTRY = {}
+_loaded = False
+_warned = set()
+
+
+class PluginError(ValueError):
+    """A plugin cannot be created from its parameters; the message says why."""
+
+
+class Plugin(object):
+    """Base class of every world plugin."""
+
+    #: library names this class answers to (filled by @register)
+    names = ()
+    #: declared parameters (sim_world.plugins.params.Param rows; the README tables come from them)
+    PARAMS = []
+
+    @classmethod
+    def param_rows(cls):
+        return list(cls.PARAMS)
+
+    def __init__(self, spec, model, world):
+        self.spec = spec
+        self.model = model
+        self.world = world
+        self.timer = UpdateTimer()
+
+    # -- schedule (one UpdateTimer in sim time) ----------------------------------------------
+    @property
+    def update_rate(self):
+        return self.timer.rate
+
+    @update_rate.setter
+    def update_rate(self, rate):
+        self.timer.rate = float(rate)
+
+    @property
+    def next_update(self):
+        return self.timer.next_time
+
+    @next_update.setter
+    def next_update(self, t):
+        self.timer.next_time = float(t)
+
+    def set_update_rate_now(self, rate):
+        """Change the rate in Hz of sim time, effective at once (from any thread); raises
+        ValueError for a negative or non-finite rate."""
+        lock = getattr(self.world, 'lock', None)
+        if lock is None:
+            self.timer.set_rate(rate, getattr(self.world, 'sim_time', 0.0))
+            return
+        with lock:
+            self.timer.set_rate(rate, self.world.sim_time)
+            resched = getattr(self.world, '_reschedule', None)
+            if resched is not None:
+                resched()
+
+    # -- helpers -------------------------------------------------------------------------
+    @property
+    def label(self):
+        """'plugin <file> of model <m>': how every error line names the plugin."""
+        return 'plugin %s of model %s' % (self.spec.filename, self.model.name)
+
+    def param(self, *names, **kw):
+        return self.spec.param(*names, **kw)
+
+    def parse(self, rows):
+        """Declared parameters (``sim_world.plugins.params.Param`` rows) read from the spec;
+        each bad value gets one error line and its default."""
+        from .params import parse_params
+        vals, _ = parse_params(self.spec, rows, self.label,
+                               getattr(self.world, 'log', None) or log)
+        return vals
+
+    def float_param(self, *names, **kw):
+        """One number (a declared row made on the fly): a bad value is an error line and
+        the default."""
+        from .params import Param
+        row = Param(names[0], float, kw.get('default'), aliases=names[1:],
+                    check=kw.get('check'))
+        return getattr(self.parse([row]), names[0])
+
+    @property
+    def namespace(self):
+        ns = self.param('robotNamespace')
+        if ns is None:
+            ns = self.model.robot_namespace
+        return (ns or '').strip('/')
+
+    def resolve(self, topic):
+        """Topic name inside the plugin's robot namespace (absolute names stay)."""
+        if topic.startswith('/') or not self.namespace:
+            return topic if topic.startswith('/') else '/' + topic
+        return '/%s/%s' % (self.namespace, topic)
+
+    def due(self, sim_time):
+        """True when the plugin should update at ``sim_time``; advances its schedule by
+        whole periods so the rate in sim time is exact."""
+        return self.timer.due(sim_time)
+
+    # -- lifecycle -----------------------------------------------------------------------
+    def load(self):
+        pass
+
+    def update(self, sim_time):
+        pass
+
+    def renderer_created(self, renderer):
+        """Called once when the world creates its renderer (the first camera that renders),
+        before that camera's first frame."""
+
+    def reset(self):
+        self.timer.reset(getattr(self.world, 'sim_time', 0.0))
+
+    def shutdown(self):
+        pass
+
+
+def register(*names):
+    """Class decorator: register a Plugin subclass under library names."""
+    def deco(cls):
+        cls.names = tuple(names)
+        for n in names:
+            _REGISTRY[_key(n)] = cls
+        return cls
+    return deco
+
+
+def _key(name):
+    name = name.strip()
+    if name.startswith('lib'):
+        name = name[3:]
+    if name.endswith('.so'):
+        name = name[:-3]
+    return name
+
+
+def _package_modules(pkg_name):
+    """Modules a package names as its plugins (PLUGIN_MODULES / PLUGIN_PACKAGE)."""
+    try:
+        pkg = importlib.import_module(pkg_name)
+    except Exception as e:  # noqa: BLE001 - a broken stack costs one warning
+        log.warning('plugin package %s not available: %s', pkg_name, e)
+        return []
+    mods = list(getattr(pkg, 'PLUGIN_MODULES', ()))
+    if getattr(pkg, 'PLUGIN_PACKAGE', False):
+        for info in pkgutil.iter_modules(getattr(pkg, '__path__', [])):
+            if not info.name.startswith('_'):
+                mods.append('%s.%s' % (pkg_name, info.name))
+    return mods
+
+
+def plugin_modules():
+    """Every module that defines plugins: those that the stacks of the repository declare in
+    their package ``__init__`` (no hand-kept list of other stacks' modules). The SDK itself
+    (this package) holds no plugins."""
+    mods = []
+    for init in sorted(glob.glob(os.path.join(ROOT, '*', 'src', '*', '__init__.py'))):
+        pkg_dir = os.path.dirname(init)
+        name = os.path.basename(pkg_dir)
+        src = os.path.dirname(pkg_dir)
+        with open(init) as f:
+            text = f.read()
+        if 'PLUGIN_MODULES' not in text and 'PLUGIN_PACKAGE' not in text:
+            continue
+        if name not in sys.modules and src not in sys.path:
+            sys.path.append(src)      # source-tree use (tests); catkin's devel space has it
+        mods.extend(_package_modules(name))
+    return mods
+
+
+def _load_modules():
+    global _loaded
+    if _loaded:
+        return
+    _loaded = True
+    for mod in plugin_modules():
+        try:
+            importlib.import_module(mod)
+        except Exception as e:  # noqa: BLE001 - one broken module must not stop the world
+            log.warning('plugin module %s not available: %s: %s', mod, type(e).__name__, e)
+
+
+def lookup(filename):
+    """The Plugin class registered for a library name, or None."""
+    _load_modules()
+    return _REGISTRY.get(_key(filename))
+
+
+def registered_names():
+    _load_modules()
+    return sorted('lib%s.so' % k for k in _REGISTRY)
+
+
+def create(spec, model, world, logger=None):
+    """Instantiate and load the plugin ``spec`` names.
+
+    Returns the plugin, or None when no plugin of that name is implemented (one warning per
+    name and process) or when loading failed (one error line naming the plugin and cause).
+    """
+    logger = logger or log
+    cls = lookup(spec.filename)
+    if cls is None:
+        if spec.filename not in _warned:
+            _warned.add(spec.filename)
+            logger.warning('plugin %s (model %s) is not implemented; the model loads without it',
+                           spec.filename, model.name)
+        return None
+    plugin = cls(spec, model, world)
+    try:
+        plugin.load()
+    except PluginError as e:
+        logger.error('plugin %s of model %s not loaded: %s', spec.filename, model.name, e)
+        return None
+    return plugin

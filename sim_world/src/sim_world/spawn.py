@@ -1,0 +1,78 @@
+"""spawn_model: put a URDF/xacro/SDF model into the running world (as gazebo_ros's).
+
+    rosrun mobile_device_sim spawn_model -urdf -param robot_description -model mobile_device \
+        -x 3.32 -y -2.1 -z 1.0 [-R r -P p -Y y] [-reference_frame desk] [-robot_namespace ns]
+    rosrun mobile_device_sim spawn_model -file sim_world/urdf/flycam.urdf.xacro -model flycam
+    rosrun mobile_device_sim spawn_model -sdf -file box.sdf -model box
+
+A .xacro file is expanded first. Exit status 0 when the world accepted the model, 1 with
+one line saying why otherwise.
+"""
+import argparse
+import sys
+
+__all__ = ['parse_args', 'main']
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog='spawn_model', description=__doc__.split('\n\n')[0])
+    p.add_argument('-urdf', action='store_true')
+    p.add_argument('-sdf', action='store_true')
+    p.add_argument('-file')
+    p.add_argument('-param')
+    p.add_argument('-model', required=True)
+    for k in ('x', 'y', 'z', 'R', 'P', 'Y'):
+        p.add_argument('-' + k, type=float, default=0.0)
+    p.add_argument('-reference_frame', default='')
+    p.add_argument('-robot_namespace', default='')
+    p.add_argument('-timeout', type=float, default=30.0)
+    a = p.parse_args(argv)
+    if bool(a.file) == bool(a.param):
+        p.error('give exactly one of -file and -param')
+    return a
+
+
+def main(argv=None):
+    import rospy
+    from mobile_device_sim.srv import SpawnModel, SpawnModelRequest
+    from .model import ModelError
+    from .transforms import Pose
+    from .urdf import process_xacro
+    argv = rospy.myargv(argv if argv is not None else sys.argv)[1:]
+    a = parse_args(argv)
+    rospy.init_node('spawn_model', anonymous=True)
+    if a.param:
+        if not rospy.has_param(a.param):
+            rospy.logfatal('spawn_model: parameter %s is not set' % a.param)
+            return 1
+        xml = rospy.get_param(a.param)
+    else:
+        try:
+            if a.file.endswith('.xacro'):
+                xml = process_xacro(a.file)
+            else:
+                with open(a.file) as f:
+                    xml = f.read()
+        except (OSError, ModelError) as e:
+            rospy.logfatal('spawn_model: cannot read %s: %s' % (a.file, e))
+            return 1
+    sdf = a.sdf or (not a.urdf and xml.lstrip().find('<sdf') >= 0)
+    srv = '/gazebo/spawn_sdf_model' if sdf else '/gazebo/spawn_urdf_model'
+    try:
+        rospy.wait_for_service(srv, timeout=a.timeout)
+    except rospy.ROSException:
+        rospy.logfatal('spawn_model: service %s did not appear within %g s (is sim_world '
+                       'running?)' % (srv, a.timeout))
+        return 1
+    req = SpawnModelRequest()
+    req.model_name = a.model
+    req.model_xml = xml
+    req.robot_namespace = a.robot_namespace
+    req.initial_pose = Pose.from_xyz_rpy((a.x, a.y, a.z), (a.R, a.P, a.Y)).to_msg()
+    req.reference_frame = a.reference_frame
+    res = rospy.ServiceProxy(srv, SpawnModel)(req)
+    if not res.success:
+        rospy.logfatal('spawn_model: %s' % res.status_message)
+        return 1
+    rospy.loginfo('spawn_model: %s' % res.status_message)
+    return 0

@@ -1,0 +1,422 @@
+"""The simulated world: models, physics, sim time, plugins and the renderer.
+
+``World`` knows nothing of ROS services (``sim_world.gazebo_api`` adds those); it can run in a
+unit test with no roscore. The world advances in fixed physics steps of sim time; each
+plugin (camera, video texture, ...) is called when sim time reaches its next period, so a
+sensor's rate in sim time does not depend on how fast anything renders. Every access from
+another thread (ROS service callbacks) takes ``world.lock``.
+"""
+import logging
+import math
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+from . import plugins as plugin_registry
+from .environment import Environment
+from .model import ModelError
+from .physics import make_engine
+from .sdf import load_world_file
+from .transforms import InvalidPose, Pose
+
+__all__ = ['World', 'WORLD_FRAMES']
+
+log = logging.getLogger('sim_world.world')
+
+#: names that mean "the world frame" in relative_entity_name / reference_frame
+WORLD_FRAMES = ('', 'world', 'map', '/world', '/map')
+
+
+class PowerBus(object):
+    """What each phone's components draw now (W) and its switches (WiFi on, display on,
+    charger in ...): outputs and radios report here, the battery reads here."""
+
+    def __init__(self):
+        self._draws = {}
+        self._flags = {}
+
+    def set_draw(self, model, component, watts):
+        watts = float(watts)
+        if not (math.isfinite(watts) and watts >= 0):
+            raise ValueError('power draw of %s must be a number >= 0 W, got %r'
+                             % (component, watts))
+        self._draws.setdefault(model, {})[component] = watts
+
+    def draws(self, model):
+        return dict(self._draws.get(model, {}))
+
+    def total(self, model):
+        return sum(self._draws.get(model, {}).values())
+
+    def set_flag(self, model, name, value):
+        self._flags.setdefault(model, {})[name] = value
+
+    def flag(self, model, name, default=None):
+        return self._flags.get(model, {}).get(name, default)
+
+    def forget(self, model):
+        self._draws.pop(model, None)
+        self._flags.pop(model, None)
+
+
+class World(object):
+    def __init__(self, physics='ode', step_size=0.001, gravity=(0.0, 0.0, -9.81),
+                 ros_enabled=False, logger=None, seed=None):
+        self.log = logger or log
+        if seed is None:
+            seed = int(np.random.SeedSequence().entropy % (2 ** 31))
+            self.log.info('world seed %d (no seed given: pass it as ~seed / seed:= to repeat '
+                          'this run)', seed)
+        try:
+            seed = int(seed)
+        except (TypeError, ValueError):
+            raise ValueError('seed must be a whole number, got %r' % (seed,))
+        if seed < 0:
+            raise ValueError('seed must be >= 0, got %d' % seed)
+        self.seed = seed
+        self.environment = Environment()
+        self.power = PowerBus()
+        self.lock = threading.RLock()
+        self.step_size = float(step_size)
+        if not (self.step_size > 0 and math.isfinite(self.step_size)):
+            raise ValueError('max_step_size must be a positive number, got %r' % step_size)
+        self.physics_name = physics
+        self.physics = make_engine(physics, self.step_size, gravity)
+        self.gravity = np.asarray(gravity, float)
+        self.ros_enabled = ros_enabled
+        self.name = 'default'
+        self.models = OrderedDict()       # name -> Model
+        self.plugins = OrderedDict()      # model name -> [Plugin]
+        self.lights = []
+        self.ambient = np.array([0.4, 0.4, 0.4, 1.0])
+        self.background = np.array([0.7, 0.7, 0.75, 1.0])
+        self.steps = 0
+        self.pass_states = None           # see _update_plugins
+        self.sim_time = 0.0
+        self._initial = {}                # model name -> Pose at spawn (reset_world)
+        self._renderer = None
+        self._next_plugin_time = math.inf
+        self._static_poses = {}           # model name -> {link: Pose} for static models
+        self.on_model_added = []          # callbacks(model) (ROS API: tf_static)
+        self.on_model_deleted = []
+        self.before_plugin_updates = []   # callbacks(sim_time) (ROS API: /clock first)
+
+    # -- loading ---------------------------------------------------------------------------
+    def load_world_file(self, path):
+        """Load an SDF world file. Raises ModelError naming the file or element."""
+        desc = load_world_file(path)
+        self.name = desc.name
+        self.physics.set_gravity(desc.gravity)
+        self.gravity = np.asarray(desc.gravity, float)
+        self.lights = list(desc.lights)
+        self.ambient, self.background = desc.ambient, desc.background
+        if desc.environment is not None:
+            transmitters = self.environment.transmitters
+            self.environment = desc.environment
+            self.environment.transmitters.extend(transmitters)
+        for m in desc.models:
+            self.add_model(m)
+        if self._renderer is not None:
+            self._renderer.set_lights(self.lights, ambient=self.ambient[:3])
+        return desc
+
+    def add_model(self, model, pose=None):
+        """Add a Model (physics, renderer, plugins). Raises ModelError on a clash or bad
+        model; on error nothing of the model stays in the world."""
+        with self.lock:
+            if model.name in self.models:
+                raise ModelError('a model named %r already exists' % model.name)
+            if pose is not None:
+                model.pose = pose
+            model.validate()
+            self.physics.add_model(model)
+            self.models[model.name] = model
+            self._initial[model.name] = model.pose.copy()
+            if model.static:
+                self._static_poses[model.name] = self.physics.link_poses(model.name)
+            if self._renderer is not None:
+                try:
+                    self._renderer.add_model(model)
+                except Exception as e:  # noqa: BLE001 - a bad mesh must not take the world down
+                    self.log.error('model %s: cannot draw it: %s', model.name, e)
+            self.plugins[model.name] = []
+            for spec in model.plugins:
+                p = plugin_registry.create(spec, model, self, logger=self.log)
+                if p is not None:
+                    p.timer.reset(self.sim_time)
+                    self.plugins[model.name].append(p)
+            self._reschedule()
+            for cb in self.on_model_added:
+                cb(model)
+            return model
+
+    def delete_model(self, name):
+        with self.lock:
+            if name not in self.models:
+                raise KeyError('no model named %r' % name)
+            for p in self.plugins.pop(name, []):
+                try:
+                    p.shutdown()
+                except Exception as e:  # noqa: BLE001
+                    self.log.error('plugin %s of %s failed to shut down: %s', p.spec.filename,
+                                   name, e)
+            self.physics.remove_model(name)
+            if self._renderer is not None:
+                self._renderer.remove_model(name)
+            del self.models[name]
+            self._initial.pop(name, None)
+            self._static_poses.pop(name, None)
+            self.power.forget(name)
+            self._reschedule()
+            for cb in self.on_model_deleted:
+                cb(name)
+
+    # -- renderer ----------------------------------------------------------------------------
+    @property
+    def renderer(self):
+        """The one offscreen renderer, created on first use (most worlds without cameras
+        never pay for a GL context)."""
+        if self._renderer is None:
+            from .render import Renderer
+            r = Renderer()
+            r.set_lights(self.lights, ambient=self.ambient[:3])
+            if hasattr(r, 'set_background'):
+                r.set_background(self.background)
+            for m in self.models.values():
+                try:
+                    r.add_model(m)
+                except Exception as e:  # noqa: BLE001
+                    self.log.error('model %s: cannot draw it: %s', m.name, e)
+            self._renderer = r
+            # poses are pulled once per render, not pushed on every plugin tick
+            if hasattr(r, 'set_pose_source'):
+                r.set_pose_source(self.link_poses)
+            self.sync_renderer(force=True)
+            # let plugins that waited for a GL context (video textures) draw before the
+            # first frame is rendered
+            for ps in self.plugins.values():
+                for p in ps:
+                    try:
+                        p.renderer_created(r)
+                    except Exception as e:  # noqa: BLE001
+                        self.log.error('plugin %s of model %s: %s', p.spec.filename,
+                                       p.model.name, e)
+        return self._renderer
+
+    def sync_renderer(self, force=False):
+        """Push every link's current world pose to the renderer (a renderer that pulls them
+        itself at each render needs nothing, unless ``force``)."""
+        if self._renderer is None:
+            return
+        if not force and getattr(self._renderer, '_pose_source', None) is not None:
+            return
+        for name in self.models:
+            self._renderer.set_link_poses(name, self.link_poses(name))
+
+    # -- state -------------------------------------------------------------------------------
+    def raycast(self, origin, direction, max_dist, ignore=()):
+        """First collision surface along a ray, or None (sim_world.raycast)."""
+        from .raycast import raycast
+        return raycast(self, origin, direction, max_dist, ignore)
+
+    def segment_intervals(self, a, b, ignore=()):
+        """Parts of the segment a->b inside solid shapes (sim_world.raycast)."""
+        from .raycast import segment_intervals
+        return segment_intervals(self, a, b, ignore)
+
+    def link_poses(self, model_name):
+        if model_name in self._static_poses:
+            return self._static_poses[model_name]
+        return self.physics.link_poses(model_name)
+
+    def link_pose(self, model_name, link_name):
+        if model_name in self._static_poses:
+            poses = self._static_poses[model_name]
+            if link_name not in poses:
+                raise KeyError('model %r has no link %r' % (model_name, link_name))
+            return poses[link_name]
+        if model_name not in self.models:
+            raise KeyError('no model named %r' % model_name)
+        return self.physics.link_pose(model_name, link_name)
+
+    def model_state(self, name):
+        """(Pose, linear, angular) of a model's root link in the world."""
+        if name not in self.models:
+            raise KeyError('no model named %r' % name)
+        if name in self._static_poses:
+            return self.models[name].pose, np.zeros(3), np.zeros(3)
+        pose, lin, ang = self.physics.model_state(name)
+        return pose, np.asarray(lin, float), np.asarray(ang, float)
+
+    def entity_state(self, entity):
+        """State of a model, of 'model::link', or of a link name unique in the world."""
+        if entity in self.models:
+            return self.model_state(entity)
+        model_name, link = None, entity
+        if '::' in entity:
+            model_name, link = entity.split('::', 1)
+            if model_name not in self.models:
+                raise KeyError('no model named %r' % model_name)
+        else:
+            owners = [n for n, m in self.models.items() if entity in m.links]
+            if len(owners) > 1:
+                raise KeyError('link name %r is ambiguous (models %s): use model::link'
+                               % (entity, ', '.join(owners)))
+            if not owners:
+                raise KeyError('no model or link named %r' % entity)
+            model_name = owners[0]
+        if model_name in self._static_poses:
+            pose = self.link_pose(model_name, link)
+            root, lin, ang = self.model_state(model_name)
+        else:
+            off = self.physics._get(model_name).spec.link_offsets.get(link)
+            if off is None:
+                raise KeyError('model %r has no link %r' % (model_name, link))
+            root, lin, ang = self.model_state(model_name)
+            pose = root * off       # = physics.link_pose, the body read once
+        # lin + ang x (pose.p - root.p), in plain floats (np.cross is slow on 3-vectors)
+        a0, a1, a2 = ang.tolist()
+        p0, p1, p2 = pose.p.tolist()
+        r0, r1, r2 = root.p.tolist()
+        b0, b1, b2 = p0 - r0, p1 - r1, p2 - r2
+        v0, v1, v2 = lin.tolist()
+        lin = np.array((v0 + (a1 * b2 - a2 * b1), v1 + (a2 * b0 - a0 * b2),
+                        v2 + (a0 * b1 - a1 * b0)))
+        return pose, lin, ang
+
+    def get_state(self, name, relative_to=''):
+        """Model state relative to an entity frame (Gazebo's get_model_state)."""
+        pose, lin, ang = self.model_state(name)
+        if relative_to in WORLD_FRAMES:
+            return pose, lin, ang
+        fpose, flin, fang = self.entity_state(relative_to)
+        rinv = fpose.inverse()
+        return (fpose.inverse() * pose, rinv.rotate(lin - flin), rinv.rotate(ang - fang))
+
+    def set_state(self, name, pose, lin=None, ang=None, reference_frame=''):
+        """Teleport a model; pose and twist are given in ``reference_frame``."""
+        if name not in self.models:
+            raise KeyError('no model named %r' % name)
+        if not isinstance(pose, Pose):
+            raise InvalidPose('pose must be a Pose')
+        lin = np.zeros(3) if lin is None else np.asarray(lin, float)
+        ang = np.zeros(3) if ang is None else np.asarray(ang, float)
+        if not (np.all(np.isfinite(lin)) and np.all(np.isfinite(ang))):
+            raise InvalidPose('twist has a non-finite value')
+        if reference_frame not in WORLD_FRAMES:
+            fpose, _, _ = self.entity_state(reference_frame)
+            pose = fpose * pose
+            lin, ang = fpose.rotate(lin), fpose.rotate(ang)
+        model = self.models[name]
+        if self.pass_states:
+            self.pass_states.clear()
+        if model.static:
+            model.pose = pose
+            self.physics.set_model_pose(name, pose)
+            self._static_poses[name] = self.physics.link_poses(name)
+            return
+        self.physics.set_model_pose(name, pose)
+        self.physics.set_model_twist(name, lin, ang)
+
+    # -- randomness --------------------------------------------------------------------------
+    def rng(self, *keys):
+        """A numpy Generator derived from the world's seed and text keys (a plugin passes
+        its model and plugin names): the same seed gives the same draws, whatever else runs
+        in the world and in whatever order plugins load."""
+        from .plugins.sensor import stable_seed
+        return np.random.Generator(np.random.PCG64(
+            np.random.SeedSequence([self.seed] + stable_seed(*keys))))
+
+    def find_plugins(self, model_name, key=None):
+        """Plugins of a model matching ``key``: the plugin's name, its library file name,
+        or one of its topics (None: all)."""
+        found = []
+        for p in self.plugins.get(model_name, []):
+            topics = [getattr(q, 'topic', None) for q in getattr(p, 'pubs', [])]
+            topics.append(getattr(p, 'topic', None))
+            topics = [t for t in topics if t]
+            k = (key or '').strip('/')
+            if key is None or key in (p.spec.name, p.spec.filename) or any(
+                    t.strip('/') == k or t.endswith('/' + k) for t in topics):
+                found.append(p)
+        return found
+
+    # -- time ----------------------------------------------------------------------------------
+    def ros_now(self):
+        import rospy
+        ns = int(round(self.steps * self.step_size * 1e9))
+        return rospy.Time(ns // 1000000000, ns % 1000000000)
+
+    def step(self, n=1):
+        """Advance n fixed steps, running plugins that fall due."""
+        physics = self.physics
+        dt = self.step_size
+        for _ in range(n):
+            physics.step()
+            self.steps += 1
+            self.sim_time = self.steps * dt
+            if self.sim_time + 1e-12 >= self._next_plugin_time:
+                self._update_plugins()
+
+    def _update_plugins(self):
+        t = self.sim_time
+        due = [p for ps in self.plugins.values() for p in ps if p.due(t)]
+        if due:
+            for cb in self.before_plugin_updates:
+                cb(t)
+            self.sync_renderer()
+            # link states read during this pass, shared by the sensors on the same link
+            # (Sensor.state); a teleport during the pass clears it, nothing outlives it
+            self.pass_states = {}
+            try:
+                for p in due:
+                    try:
+                        p.update(t)
+                    except Exception as e:  # noqa: BLE001 - one bad plugin must not stop the world
+                        key = (p.model.name, p.spec.filename)
+                        if not getattr(p, '_failed_once', False):
+                            p._failed_once = True
+                            self.log.error('plugin %s of model %s failed at t=%.3f: %s: %s',
+                                           key[1], key[0], t, type(e).__name__, e)
+            finally:
+                self.pass_states = None
+        self._reschedule()
+
+    def _reschedule(self):
+        nxt = math.inf
+        now = self.sim_time
+        for ps in self.plugins.values():
+            for p in ps:
+                t = p.timer.next_due(now)
+                if t < nxt:
+                    nxt = t
+        self._next_plugin_time = nxt
+
+    def reset(self, time=False):
+        """Gazebo's reset_world (poses back, twists zero); with time=True also the clock
+        (reset_simulation)."""
+        with self.lock:
+            for name, pose in self._initial.items():
+                self.set_state(name, pose.copy())
+            if time:
+                self.steps = 0
+                self.sim_time = 0.0
+            for ps in self.plugins.values():
+                for p in ps:
+                    p.reset()
+                    p.timer.reset(self.sim_time)
+            self._reschedule()
+
+    def shutdown(self):
+        for name in list(self.plugins):
+            for p in self.plugins[name]:
+                try:
+                    p.shutdown()
+                except Exception:  # noqa: BLE001
+                    pass
+        self.plugins.clear()
+        close = getattr(self.physics, 'close', None)
+        if close is not None:
+            close()   # frees Bullet's native client now, not at garbage collection
+

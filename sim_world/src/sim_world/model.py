@@ -5,6 +5,7 @@ objects; the physics backends, the renderer and the plugins read them. Poses of 
 collisions and inertials are relative to their link; a link's pose in the model follows
 from the joint tree (``Model.link_poses``). Units are SI (REP 103).
 """
+import math
 import os
 
 import numpy as np
@@ -226,9 +227,16 @@ def _local(tag):
 
 
 class Light(object):
+    """A world light (SDF ``<light>``). ``direction`` is in the light's frame (its pose
+    rotates it); spot lights (``kind='spot'``) also have a cone: ``inner_angle`` and
+    ``outer_angle`` are the full apex angles (radians) of the bright inner cone and of the
+    cone outside which the light gives nothing, ``falloff`` the exponent between them, as
+    Gazebo (Ogre) defines SDF ``<spot>``; see ``spot_factor``."""
+
     def __init__(self, name, kind='directional', pose=None, diffuse=(0.8, 0.8, 0.8, 1.0),
                  specular=(0.2, 0.2, 0.2, 1.0), direction=(0.0, 0.0, -1.0),
-                 attenuation=(1.0, 0.0, 0.0), range=20.0):
+                 attenuation=(1.0, 0.0, 0.0), range=20.0, inner_angle=0.0,
+                 outer_angle=math.pi / 2, falloff=1.0):
         self.name = name
         self.kind = kind  # 'directional', 'point', 'spot'
         self.pose = pose or Pose()
@@ -237,6 +245,39 @@ class Light(object):
         self.direction = np.asarray(direction, float)
         self.attenuation = attenuation
         self.range = range
+        self.inner_angle = float(inner_angle)
+        self.outer_angle = float(outer_angle)
+        self.falloff = float(falloff)
+
+    def world_direction(self):
+        """Unit vector the light shines along, in the world frame."""
+        d = self.pose.rotate(self.direction)
+        n = float(np.linalg.norm(d))
+        return d / n if n > 1e-9 else np.array([0.0, 0.0, -1.0])
+
+    def spot_factor(self, to_point):
+        """Share (0..1) of the light's intensity sent towards ``to_point`` (a world vector
+        from the light to the lit point; any length): 1 for point and directional lights;
+        for a spot, Ogre's (Gazebo's) cone ``clamp((cos a - cos(outer/2)) / (cos(inner/2) -
+        cos(outer/2)), 0, 1) ** falloff`` with ``a`` the angle off the spot's direction."""
+        if self.kind != 'spot':
+            return 1.0
+        v = np.asarray(to_point, float)
+        n = float(np.linalg.norm(v))
+        if n < 1e-12:
+            return 1.0
+        return float(self.cone(float(np.dot(v / n, self.world_direction()))))
+
+    def cone(self, cos_angle):
+        """The spot's cone factor of the cosine(s) of the angle off its axis (numpy arrays
+        too): ``clamp((c - cos(outer/2)) / (cos(inner/2) - cos(outer/2)), 0, 1) ** falloff``."""
+        c = np.asarray(cos_angle, float)
+        ci = math.cos(min(self.inner_angle, self.outer_angle) / 2.0)
+        co = math.cos(self.outer_angle / 2.0)
+        if ci - co < 1e-9:
+            return np.where(c >= co, 1.0, 0.0)
+        t = np.clip((c - co) / (ci - co), 0.0, 1.0)
+        return np.where(t > 0, t ** self.falloff, 0.0)
 
 
 class Model(object):

@@ -8,7 +8,8 @@ Supported (SDF 1.4-1.7 element names)::
              <gravity>...</gravity></physics>
     <scene><ambient>r g b a</ambient><background>r g b a</background></scene>
     <light name type="directional|point|spot"><pose>x y z r p y</pose><diffuse/>
-           <specular/><direction>x y z</direction><attenuation><range/></attenuation></light>
+           <specular/><direction>x y z</direction><attenuation><range/></attenuation>
+           <spot><inner_angle/><outer_angle/><falloff/></spot></light>
     <include><uri>model://ground_plane</uri></include>      (also model://sun)
     <model name="..."><static>true</static><pose>x y z r p y</pose>
       <link name="..."><pose/><gravity>false</gravity>
@@ -29,6 +30,7 @@ Supported (SDF 1.4-1.7 element names)::
 A ``<model>`` may also stand alone (the spawn_sdf_model service). Relative file names
 resolve against the world file's folder. Errors raise ``ModelError`` naming the element.
 """
+import math
 import os
 import xml.etree.ElementTree as ET
 
@@ -231,6 +233,40 @@ def _sun():
                  (0.2, 0.2, 0.2, 1), (-0.5, 0.1, -0.9))
 
 
+def _light(lel):
+    """An SDF <light> -> Light. Spot lights keep their cone (<spot>: inner_angle,
+    outer_angle, falloff; SDF's defaults 0, 0, 0 would be a dark spot: an absent <spot>
+    gives a 90-degree cone, inner 0, falloff 1)."""
+    what = 'light %r' % lel.get('name')
+    kind = lel.get('type', 'directional')
+    if kind not in ('directional', 'point', 'spot'):
+        raise ModelError('%s: unknown type %r (directional, point, spot)' % (what, kind))
+    att = lel.find('attenuation')
+    spot = {}
+    sel = lel.find('spot')
+    if sel is not None:
+        for tag in ('inner_angle', 'outer_angle', 'falloff'):
+            t = _child_text(sel, tag)
+            if t is not None:
+                spot[tag] = float(_vec(t, 1, '%s spot %s' % (what, tag))[0])
+        if spot.get('inner_angle', 0.0) < 0 or spot.get('outer_angle', 1.0) <= 0 \
+                or spot.get('falloff', 1.0) < 0:
+            raise ModelError('%s <spot>: angles must be positive (inner >= 0, outer > 0) and '
+                             'falloff >= 0, got %r' % (what, spot))
+        if spot.get('inner_angle', 0.0) > spot.get('outer_angle', math.pi / 2):
+            raise ModelError('%s <spot>: inner_angle %g is wider than outer_angle %g'
+                             % (what, spot['inner_angle'], spot.get('outer_angle', math.pi / 2)))
+    direction = _vec(_child_text(lel, 'direction', '0 0 -1'), 3, what + ' direction')
+    if float(np.linalg.norm(direction)) < 1e-9:
+        raise ModelError('%s: <direction> is the zero vector' % what)
+    return Light(lel.get('name', 'light'), kind, _pose(lel, what),
+                 _vec(_child_text(lel, 'diffuse', '0.8 0.8 0.8 1'), 4, what + ' diffuse'),
+                 _vec(_child_text(lel, 'specular', '0.2 0.2 0.2 1'), 4, what + ' specular'),
+                 direction,
+                 range=float(_vec(_child_text(att, 'range', '20'), 1, what + ' range')[0])
+                 if att is not None else 20.0, **spot)
+
+
 def parse_world(text, base_dir=None):
     wel = _sdf_element(text, 'world', 'world file', 'malformed world file')
     w = WorldDescription(wel.get('name', 'default'))
@@ -248,15 +284,7 @@ def parse_world(text, base_dir=None):
     if wel.find('scene/background') is not None:
         w.background = _vec(_child_text(wel, 'scene/background'), 4, 'scene background')
     for lel in wel.findall('light'):
-        what = 'light %r' % lel.get('name')
-        att = lel.find('attenuation')
-        w.lights.append(Light(lel.get('name', 'light'), lel.get('type', 'directional'),
-                              _pose(lel, what),
-                              _vec(_child_text(lel, 'diffuse', '0.8 0.8 0.8 1'), 4, what),
-                              _vec(_child_text(lel, 'specular', '0.2 0.2 0.2 1'), 4, what),
-                              _vec(_child_text(lel, 'direction', '0 0 -1'), 3, what),
-                              range=float(_child_text(att, 'range', '20')) if att is not None
-                              else 20.0))
+        w.lights.append(_light(lel))
     for iel in wel.findall('include'):
         uri = _child_text(iel, 'uri', '')
         if uri.endswith('ground_plane'):

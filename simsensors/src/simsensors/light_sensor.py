@@ -6,7 +6,9 @@ each through its direction, its distance and what is in between:
 
 * point and spot lights (``world.lights``, SDF ``<light type="point|spot">``): photometric
   inverse-square law ``E = I cos(theta) / r^2`` with the luminous intensity ``I`` =
-  ``candelaPerUnit`` x the luminance of the light's diffuse colour (Rec. 709 weights), zero
+  ``candelaPerUnit`` x the luminance of the light's diffuse colour (Rec. 709 weights) x, for
+  a spot, its cone factor towards the sensor (``Light.spot_factor``: SDF ``<spot>`` inner and
+  outer angle and falloff, Gazebo's definition, the one the renderer approximates), zero
   beyond the light's ``<attenuation><range>`` and where a ray from the sensor to the light
   hits the world's collision geometry (``world.raycast``, the phone itself ignored).
   Calibration: ``candelaPerUnit`` 1500 cd makes a white light (diffuse 1 1 1) a typical
@@ -153,9 +155,12 @@ class LightSensor(Sensor):
             c = float(np.dot(n, v / r))
             if c <= 0:
                 continue
+            cone = lt.spot_factor(-v)            # 1 for point lights
+            if cone <= 0:
+                continue
             if self._blocked(origin, v / r, r - 1e-3):
                 continue
-            intensity = self.p.candelaPerUnit * max(luminance(lt.diffuse), 0.0)
+            intensity = self.p.candelaPerUnit * max(luminance(lt.diffuse), 0.0) * cone
             out.append((intensity * c / max(r * r, 1e-4), _unit_color(lt.diffuse), lt.name))
         amb = np.asarray(getattr(self.world, 'ambient', (0, 0, 0)), float)[:3]
         amb_lux = self.p.ambientLux * luminance(amb)

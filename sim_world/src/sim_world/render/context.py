@@ -156,6 +156,48 @@ class Context(object):
         GL.glViewport(0, 0, width, height)
         return t.fbo
 
+    def depth_target(self, key, width, height):
+        """Bind (creating on first use) a depth-only framebuffer object named ``key`` whose
+        depth buffer is a ``width`` x ``height`` depth texture set up for shadow look-ups
+        (compare mode on, LEQUAL, luminance result, outside = 1: lit); sets the viewport.
+        Returns the texture id. The next ``target()`` binds a colour target again."""
+        GL = self._GL
+        width, height = int(width), int(height)
+        k = ('depth', key, width, height)
+        t = self._targets.get(k)
+        if t is None:
+            fbo = GL.glGenFramebuffers(1)
+            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
+            tex = GL.glGenTextures(1)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+            GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_DEPTH_COMPONENT24, width, height, 0,
+                            GL.GL_DEPTH_COMPONENT, GL.GL_UNSIGNED_INT, None)
+            for pname, val in ((GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR),
+                               (GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR),
+                               (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_BORDER),
+                               (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_BORDER),
+                               (GL.GL_TEXTURE_COMPARE_MODE, GL.GL_COMPARE_REF_TO_TEXTURE),
+                               (GL.GL_TEXTURE_COMPARE_FUNC, GL.GL_LEQUAL),
+                               (GL.GL_DEPTH_TEXTURE_MODE, GL.GL_LUMINANCE)):
+                GL.glTexParameteri(GL.GL_TEXTURE_2D, pname, val)
+            GL.glTexParameterfv(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_BORDER_COLOR, (1.0, 1.0, 1.0, 1.0))
+            GL.glFramebufferTexture2D(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT,
+                                      GL.GL_TEXTURE_2D, tex, 0)
+            GL.glDrawBuffer(GL.GL_NONE)
+            GL.glReadBuffer(GL.GL_NONE)
+            status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+            if status != GL.GL_FRAMEBUFFER_COMPLETE:
+                raise RenderError('depth framebuffer %dx%d incomplete (status 0x%x)'
+                                  % (width, height, int(status)))
+            t = _Target(fbo, None, tex, width, height)
+            self._targets[k] = t
+            self._bound = None
+        if self._bound != k:
+            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, t.fbo)
+            self._bound = k
+        GL.glViewport(0, 0, width, height)
+        return t.depth
+
     def read_rgba_raw(self, width, height, out=None):
         """glReadPixels of the bound target as HxWx4 uint8, GL row order (row 0 = bottom)."""
         GL = self._GL
@@ -192,7 +234,10 @@ class Context(object):
         with self:
             for t in self._targets.values():
                 GL.glDeleteFramebuffers(1, [t.fbo])
-                GL.glDeleteRenderbuffers(2, [t.color, t.depth])
+                if t.color is None:
+                    GL.glDeleteTextures([t.depth])
+                else:
+                    GL.glDeleteRenderbuffers(2, [t.color, t.depth])
             self._targets.clear()
             self._bound = None
 

@@ -3,7 +3,9 @@
 Lighting is OpenGL's fixed-function model (per vertex; big box faces and planes are split
 into grids by ``shapes`` so point lights stay smooth): on llvmpipe it is many times faster
 than an equivalent per-pixel GLSL shader, which was measured at 10-60 fps for a full
-480x800 frame against 150-300 fps here.
+480x800 frame against 150-300 fps here. Spot lights and projectors are per pixel: an
+additive projective-texturing pass each (the spot's cone as an image, ``cone_image``), with
+a shadow map for occlusion (projectors always, spots with ``spot_shadows``).
 
 Threading: every public method may be called from any thread; all GL work happens under
 the context lock. Images handed in by ROS callbacks (``set_dynamic_texture``) are uploaded
@@ -21,7 +23,7 @@ from ..transforms import Pose
 from . import shapes
 from .context import get_context, linearize_depth
 
-__all__ = ['CameraView', 'Renderer', 'DEFAULT_SUN']
+__all__ = ['CameraView', 'Renderer', 'DEFAULT_SUN', 'cone_image']
 
 log = logging.getLogger('sim_world.render')
 
@@ -170,6 +172,13 @@ class Renderer(object):
         self._rgba_bufs = {}
         self.sort_items = True
         self.frames = 0
+        self._cone_tex = {}            # (inner, outer, falloff) -> GL texture of its cone
+        #: occlusion of projected light by shadow maps (``shadow_size`` pixels on the long
+        #: side): projectors always (their picture stops at the first surface), spot lights
+        #: on request (one more depth pass per spot and frame)
+        self.projector_shadows = True
+        self.spot_shadows = False
+        self.shadow_size = 512
 
     # -- scene ------------------------------------------------------------------------------
     def add_model(self, model):
@@ -404,7 +413,8 @@ class Renderer(object):
         along its +x, z up, like a camera) with horizontal field of view ``fov`` (rad) between
         the clip distances, onto every surface in the frustum: added to the lit colour as a
         point light of ``brightness`` at 1 m (1/d^2, cosine falloff) modulated by the image
-        and the surface's colour. No occlusion: it also lands behind what is in front."""
+        and the surface's colour. Occluded: a shadow map from the projector (its own model
+        excepted) stops the picture at the first surface it meets (``projector_shadows``)."""
         if rgb is not None:
             rgb = np.asarray(rgb)
             if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
@@ -429,12 +439,13 @@ class Renderer(object):
             if pr is not None and pr.tex is not None:
                 self._trash.append(('tex', pr.tex))
 
-    def _draw_projections(self, V):
-        """Additive pass per projector: eye-linear texgen in world coordinates, the texture
-        matrix = bias * projection * view of the projector, clip planes at its near and far
-        distance, one point light at its position (the only light)."""
+    def _projected(self):
+        """The lights drawn by projective texturing, as _Projection-like records with the
+        world pose ``M`` of a frame looking along its +x: the projectors that are on, and
+        the spot lights (their cone as an image, ``cone_image``). Uploads pending images."""
         from OpenGL import GL
-        for pr in list(self._projectors.values()):
+        out = []
+        for key, pr in list(self._projectors.items()):
             poses = self._link_poses.get(pr.model)
             if not pr.on or poses is None or pr.link not in poses:
                 continue
@@ -444,76 +455,170 @@ class Renderer(object):
                 img = pr.pending
                 pr.shape = img.shape
                 _upload_texture(pr.tex, img, mipmap=False)
-                GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_BORDER)
-                GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_BORDER)
-                GL.glTexParameterfv(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_BORDER_COLOR, (0, 0, 0, 0))
+                _clamp_black(pr.tex)
                 pr.pending = None
             if pr.tex is None:
                 continue
             M = poses[pr.link]
             M = M.matrix() if hasattr(M, 'matrix') else np.asarray(M)
-            h, w = pr.shape[:2]
-            view = CameraView(w, h, hfov=pr.fov, near=pr.near, far=pr.far)
+            b = pr.brightness
+            out.append(dict(key=('projector', key), M=M, fov=pr.fov, size=pr.shape[1::-1],
+                            near=pr.near, far=pr.far, tex=pr.tex, diffuse=(b, b, b, 1.0),
+                            att=(1e-3, 0.0, 1.0), shadow=self.projector_shadows,
+                            exclude=pr.model))
+        lights = self._lights or []
+        for i, lt in enumerate(lights[:8]):
+            if lt.kind != 'spot':
+                continue
+            fov = min(max(lt.outer_angle, 1e-3), 2 * math.radians(_SPOT_MAX_HALF_DEG))
+            ckey = (round(lt.inner_angle, 6), round(lt.outer_angle, 6), round(lt.falloff, 6))
+            tex = self._cone_tex.get(ckey)
+            if tex is None:
+                tex = self._cone_tex[ckey] = _upload_texture(
+                    None, cone_image(lt.inner_angle, lt.outer_angle, lt.falloff), mipmap=False)
+                _clamp_black(tex)
+            M = np.eye(4)
+            M[:3, :3] = _frame_along(lt.world_direction())
+            M[:3, 3] = lt.pose.p
+            att = list(lt.attenuation) + [1.0, 0.0, 0.0]
+            out.append(dict(key=('spot', i), M=M, fov=fov, size=(_CONE_SIZE, _CONE_SIZE),
+                            near=0.02, far=max(float(lt.range), 0.05), tex=tex,
+                            diffuse=tuple(float(c) for c in lt.diffuse[:4]),
+                            att=(max(float(att[0]), 1e-3), float(att[1]), float(att[2])),
+                            shadow=self.spot_shadows, exclude=None))
+        return out
+
+    def _shadow_view(self, pl):
+        w, h = pl['size']
+        s = float(self.shadow_size)
+        sw, sh = (int(s), max(1, int(round(s * h / w)))) if w >= h else \
+            (max(1, int(round(s * w / h))), int(s))
+        return CameraView(sw, sh, hfov=pl['fov'], near=pl['near'], far=pl['far'])
+
+    def _draw_shadow_map(self, pl):
+        """Depth of every opaque visual (but those of the model ``exclude``: the projector's
+        own phone) seen from the light's frustum, into its depth texture (a shadow map)."""
+        from OpenGL import GL
+        view = self._shadow_view(pl)
+        pl['depth_tex'] = self.ctx.depth_target(pl['key'], view.width, view.height)
+        pl['shadow_view'] = view
+        GL.glClear(GL.GL_DEPTH_BUFFER_BIT)
+        GL.glMatrixMode(GL.GL_PROJECTION)
+        GL.glLoadMatrixd(view.projection_matrix().T.ravel())
+        GL.glMatrixMode(GL.GL_MODELVIEW)
+        Vs = EYE_FROM_LINK.dot(np.linalg.inv(pl['M']))
+        GL.glUseProgram(0)
+        GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
+        for cap in (GL.GL_LIGHTING, GL.GL_TEXTURE_2D, GL.GL_CULL_FACE, GL.GL_BLEND,
+                    GL.GL_CLIP_PLANE0, GL.GL_CLIP_PLANE1, GL.GL_SCISSOR_TEST):
+            GL.glDisable(cap)
+        GL.glEnable(GL.GL_DEPTH_TEST)
+        GL.glDepthFunc(GL.GL_LEQUAL)
+        GL.glDepthMask(GL.GL_TRUE)
+        GL.glEnable(GL.GL_POLYGON_OFFSET_FILL)
+        GL.glPolygonOffset(2.0, 4.0)
+        for name, items in self._items.items():
+            if name == pl['exclude']:
+                continue
+            for it in items:
+                if it.transparent:
+                    continue
+                if it.vao is None:
+                    self._make_vao(it)
+                GL.glBindVertexArray(it.vao)
+                GL.glLoadMatrixd(Vs.dot(it.world).T.ravel())
+                GL.glDrawArrays(GL.GL_TRIANGLES, 0, it.mesh.count)
+        GL.glBindVertexArray(0)
+        GL.glDisable(GL.GL_POLYGON_OFFSET_FILL)
+        GL.glColorMask(GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE, GL.GL_TRUE)
+
+    @staticmethod
+    def _texgen(unit, matrix):
+        """Texture unit ``unit``: eye-linear texgen of world coordinates (the modelview is
+        the camera's view when called), texture matrix ``matrix``."""
+        from OpenGL import GL
+        GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+        GL.glMatrixMode(GL.GL_TEXTURE)
+        GL.glLoadMatrixd(matrix.T.ravel())
+        GL.glMatrixMode(GL.GL_MODELVIEW)
+        for coord, gen, row in ((GL.GL_S, GL.GL_TEXTURE_GEN_S, (1, 0, 0, 0)),
+                                (GL.GL_T, GL.GL_TEXTURE_GEN_T, (0, 1, 0, 0)),
+                                (GL.GL_R, GL.GL_TEXTURE_GEN_R, (0, 0, 1, 0)),
+                                (GL.GL_Q, GL.GL_TEXTURE_GEN_Q, (0, 0, 0, 1))):
+            GL.glTexGeni(coord, GL.GL_TEXTURE_GEN_MODE, GL.GL_EYE_LINEAR)
+            GL.glTexGenfv(coord, GL.GL_EYE_PLANE, row)
+            GL.glEnable(gen)
+        GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_MODULATE)
+        GL.glEnable(GL.GL_TEXTURE_2D)
+
+    @staticmethod
+    def _texgen_off(unit):
+        from OpenGL import GL
+        GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+        for gen in (GL.GL_TEXTURE_GEN_S, GL.GL_TEXTURE_GEN_T, GL.GL_TEXTURE_GEN_R,
+                    GL.GL_TEXTURE_GEN_Q):
+            GL.glDisable(gen)
+        GL.glDisable(GL.GL_TEXTURE_2D)
+        GL.glMatrixMode(GL.GL_TEXTURE)
+        GL.glLoadIdentity()
+        GL.glMatrixMode(GL.GL_MODELVIEW)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+
+    def _draw_projections(self, V, plights):
+        """Additive pass per projected light (projectors, spot lights): the lit colour of
+        every lit opaque visual (its material and texture on unit 0) from one point light at
+        the light's position (the only light), times the light's image projected by
+        eye-linear texgen on unit 1 (texture matrix = bias * projection * view of the
+        light), times the shadow-map comparison on unit 2 (1 where the surface is the
+        nearest thing the light sees, 0 behind an occluder), clipped to the light's near
+        and far distance."""
+        from OpenGL import GL
+        B = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+        for pl in plights:
+            M = pl['M']
+            w, h = pl['size']
+            view = CameraView(w, h, hfov=pl['fov'], near=pl['near'], far=pl['far'])
             Vp = EYE_FROM_LINK.dot(np.linalg.inv(M))
             Pp = view.projection_matrix(flip_y=True)
-            B = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
             pos, fwd = M[:3, 3], M[:3, 0] / np.linalg.norm(M[:3, 0])
-            GL.glMatrixMode(GL.GL_TEXTURE)
-            GL.glLoadMatrixd(B.dot(Pp).dot(Vp).T.ravel())
-            GL.glMatrixMode(GL.GL_MODELVIEW)
             GL.glLoadMatrixd(V.T.ravel())          # planes and light given in world frame
-            for coord, gen, row in ((GL.GL_S, GL.GL_TEXTURE_GEN_S, (1, 0, 0, 0)),
-                                    (GL.GL_T, GL.GL_TEXTURE_GEN_T, (0, 1, 0, 0)),
-                                    (GL.GL_R, GL.GL_TEXTURE_GEN_R, (0, 0, 1, 0)),
-                                    (GL.GL_Q, GL.GL_TEXTURE_GEN_Q, (0, 0, 0, 1))):
-                GL.glTexGeni(coord, GL.GL_TEXTURE_GEN_MODE, GL.GL_EYE_LINEAR)
-                GL.glTexGenfv(coord, GL.GL_EYE_PLANE, row)
-                GL.glEnable(gen)
-            GL.glClipPlane(GL.GL_CLIP_PLANE0, tuple(np.r_[fwd, -fwd.dot(pos) - pr.near]))
-            GL.glClipPlane(GL.GL_CLIP_PLANE1, tuple(np.r_[-fwd, fwd.dot(pos) + pr.far]))
+            self._texgen(1, B.dot(Pp).dot(Vp))
+            GL.glBindTexture(GL.GL_TEXTURE_2D, pl['tex'])
+            if pl.get('depth_tex') is not None:
+                sv = pl['shadow_view']
+                self._texgen(2, B.dot(sv.projection_matrix()).dot(Vp))
+                GL.glBindTexture(GL.GL_TEXTURE_2D, pl['depth_tex'])
+            GL.glActiveTexture(GL.GL_TEXTURE0)
+            GL.glClipPlane(GL.GL_CLIP_PLANE0, tuple(np.r_[fwd, -fwd.dot(pos) - pl['near']]))
+            GL.glClipPlane(GL.GL_CLIP_PLANE1, tuple(np.r_[-fwd, fwd.dot(pos) + pl['far']]))
             GL.glEnable(GL.GL_CLIP_PLANE0)
             GL.glEnable(GL.GL_CLIP_PLANE1)
             GL.glLightModelfv(GL.GL_LIGHT_MODEL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
-            GL.glLightModeli(GL.GL_LIGHT_MODEL_TWO_SIDE, GL.GL_FALSE)
             for i in range(1, 8):
                 GL.glDisable(GL.GL_LIGHT0 + i)
-            b = pr.brightness
             GL.glEnable(GL.GL_LIGHT0)
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
-            GL.glLightfv(GL.GL_LIGHT0, GL.GL_DIFFUSE, (b, b, b, 1.0))
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_DIFFUSE, pl['diffuse'])
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_SPECULAR, (0.0, 0.0, 0.0, 1.0))
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_POSITION, (pos[0], pos[1], pos[2], 1.0))
             GL.glLightf(GL.GL_LIGHT0, GL.GL_SPOT_CUTOFF, 180.0)
-            GL.glLightf(GL.GL_LIGHT0, GL.GL_CONSTANT_ATTENUATION, 1e-3)
-            GL.glLightf(GL.GL_LIGHT0, GL.GL_LINEAR_ATTENUATION, 0.0)
-            GL.glLightf(GL.GL_LIGHT0, GL.GL_QUADRATIC_ATTENUATION, 1.0)
-            GL.glEnable(GL.GL_LIGHTING)
-            GL.glEnable(GL.GL_TEXTURE_2D)
-            GL.glBindTexture(GL.GL_TEXTURE_2D, pr.tex)
-            GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_MODULATE)
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_CONSTANT_ATTENUATION, pl['att'][0])
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_LINEAR_ATTENUATION, pl['att'][1])
+            GL.glLightf(GL.GL_LIGHT0, GL.GL_QUADRATIC_ATTENUATION, pl['att'][2])
             GL.glEnable(GL.GL_BLEND)
             GL.glBlendFunc(GL.GL_ONE, GL.GL_ONE)
             GL.glDepthMask(GL.GL_FALSE)
             GL.glDepthFunc(GL.GL_LEQUAL)
-            GL.glDisable(GL.GL_CULL_FACE)
+            self._state = (None, None, None)
             for items in self._items.values():
                 for it in items:
                     if it.transparent or not it.lit:
                         continue
-                    if it.vao is None:
-                        self._make_vao(it)
-                    GL.glBindVertexArray(it.vao)
-                    GL.glLoadMatrixd(V.dot(it.world).T.ravel())
-                    c = it.rgba if not it.own_parts else (1.0, 1.0, 1.0, 1.0)
-                    GL.glColor4f(c[0], c[1], c[2], 1.0)
-                    GL.glDrawArrays(GL.GL_TRIANGLES, 0, it.mesh.count)
+                    self._draw(it, V, None)
             GL.glBindVertexArray(0)
-            for gen in (GL.GL_TEXTURE_GEN_S, GL.GL_TEXTURE_GEN_T, GL.GL_TEXTURE_GEN_R,
-                        GL.GL_TEXTURE_GEN_Q):
-                GL.glDisable(gen)
-            GL.glMatrixMode(GL.GL_TEXTURE)
-            GL.glLoadIdentity()
-            GL.glMatrixMode(GL.GL_MODELVIEW)
+            self._texgen_off(2)
+            self._texgen_off(1)
+            GL.glActiveTexture(GL.GL_TEXTURE0)
             GL.glDisable(GL.GL_CLIP_PLANE0)
             GL.glDisable(GL.GL_CLIP_PLANE1)
             GL.glDisable(GL.GL_BLEND)
@@ -568,6 +673,11 @@ class Renderer(object):
             self._apply_poses()
             self._empty_trash()
             self._upload_dynamic()
+            plights = self._projected()
+            for pl in plights:
+                if pl['shadow']:
+                    self._draw_shadow_map(pl)
+            self.ctx.target(w, h)
             bg = view.background if view.background is not None else self.background
             GL.glClearColor(bg[0], bg[1], bg[2], 1.0)
             GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
@@ -580,8 +690,8 @@ class Renderer(object):
             self._setup_lights()
             self._state = (None, None, None)
             self._draw_all(V)
-            if self._projectors:
-                self._draw_projections(V)
+            if plights:
+                self._draw_projections(V, plights)
             # flipped projection: row 0 is the top. RGBA readback is several times faster
             # than RGB on llvmpipe; dropping alpha in OpenCV costs less than the difference.
             rgba = self.ctx.read_rgba_raw(w, h, self._rgba_buffer(w, h))
@@ -685,7 +795,9 @@ class Renderer(object):
                     GL.glLightf(L, a, 1.0)
                 GL.glLightf(L, GL.GL_LINEAR_ATTENUATION, 0.0)
                 GL.glLightf(L, GL.GL_QUADRATIC_ATTENUATION, 0.0)
-            else:   # point (spot drawn as point)
+            elif lt.kind == 'spot':      # drawn by the projective pass (_draw_projections)
+                GL.glDisable(L)
+            else:   # point
                 p = lt.pose.p
                 GL.glLightfv(L, GL.GL_POSITION, (p[0], p[1], p[2], 1.0))
                 GL.glLightf(L, GL.GL_SPOT_CUTOFF, 180.0)
@@ -799,6 +911,45 @@ class Renderer(object):
         if textured:
             GL.glBindTexture(GL.GL_TEXTURE_2D, tid)
         GL.glColor4f(rgba[0], rgba[1], rgba[2], rgba[3])
+
+
+_CONE_SIZE = 128
+_SPOT_MAX_HALF_DEG = 80.0       # a spot wider than 160 degrees is cut there
+
+
+def cone_image(inner, outer, falloff, size=_CONE_SIZE):
+    """The cone of an SDF spot light as a square grey image (HxWx3 uint8) for a frustum of
+    full angle min(outer, 160 degrees): each pixel is ``Light.spot_factor`` of its ray, so
+    projecting the image from the light gives the cone per pixel (the renderer's lighting
+    is otherwise per vertex)."""
+    from ..model import Light
+    fov = min(max(outer, 1e-3), 2 * math.radians(_SPOT_MAX_HALF_DEG))
+    t = math.tan(fov / 2.0)
+    g = (2.0 * (np.arange(size) + 0.5) / size - 1.0) * t
+    x, y = np.meshgrid(g, g)
+    c = 1.0 / np.sqrt(1.0 + x * x + y * y)                  # cos of the angle off the axis
+    lt = Light('cone', 'spot', inner_angle=inner, outer_angle=outer, falloff=falloff)
+    f = lt.cone(c)
+    img = np.clip(np.round(f * 255.0), 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(np.repeat(img[:, :, None], 3, axis=2))
+
+
+def _frame_along(d):
+    """A rotation whose +x is the unit vector d (z as close to world up as may be)."""
+    d = np.asarray(d, float) / np.linalg.norm(d)
+    ref = np.array([0.0, 0.0, 1.0]) if abs(d[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    z = ref - d * d.dot(ref)
+    z /= np.linalg.norm(z)
+    return np.column_stack([d, np.cross(z, d), z])
+
+
+def _clamp_black(tid):
+    """Nothing outside a projected image: clamp to a transparent black border."""
+    from OpenGL import GL
+    GL.glBindTexture(GL.GL_TEXTURE_2D, tid)
+    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_BORDER)
+    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_BORDER)
+    GL.glTexParameterfv(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_BORDER_COLOR, (0, 0, 0, 0))
 
 
 def _uses_file_materials(mat):

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Regenerate docs/projector.png: the office world's phone held 0.35 m over the desk, its
 top edge tilted down, projecting a test picture (colour bars and a label) onto the desk
-through its pico projector (simsensors.projector), seen by the simulator's renderer.
+through its pico projector (simsensors.projector) past a mug that shadows part of it,
+seen by the simulator's renderer.
 Run: source build/env.sh && python3 docs/make_projector_png.py"""
 import math
 import os
@@ -12,7 +13,7 @@ import numpy as np
 
 from sim_world.render import CameraView
 from sim_world.transforms import Pose
-from sim_world.urdf import load_urdf_file
+from sim_world.urdf import load_urdf_file, parse_urdf
 from sim_world.world import World
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -38,6 +39,16 @@ cv2.putText(img, 'mobile_device', (20, 215), cv2.FONT_HERSHEY_SIMPLEX, 1.1, (255
 proj.set_image(img)
 w.step(50)
 pp = w.link_pose('mobile_device', 'mobile_projector')
+# a mug standing on the desk in the beam (the projector's shadow map: its shadow behind it)
+ray = pp.rotate(np.array([1.0, 0, 0]))
+hit = pp.p + ray * (0.75 - pp.p[2]) / ray[2]                 # centre of the picture on the desk
+foot = pp.p + (hit - pp.p) * 0.8
+w.add_model(parse_urdf('''<robot name="mug"><link name="m"><visual>
+  <geometry><cylinder radius="0.035" length="0.1"/></geometry></visual></link>
+  <gazebo><static>true</static></gazebo>
+  <gazebo reference="m"><material>Gazebo/Grey</material></gazebo></robot>''', name='mug'),
+            pose=Pose((foot[0], foot[1] - 0.04, 0.80)))
+w.step(10)
 eye = pp.p + np.array([-0.45, -0.6, 0.05])
 target = pp.p + pp.rotate(np.array([0.2, 0, 0]))
 d = target - eye

@@ -134,3 +134,48 @@ def test_unreadable_texture_file_one_line_and_world_runs(tmp_path, caplog):
         assert proj.image is None and proj.last_value is False
     finally:
         w.shutdown()
+
+
+def test_an_object_between_the_projector_and_the_floor_blocks_the_picture():
+    """Occlusion (a shadow map from the projector): a board 0.5 m under the projector stops
+    the red half of the picture; the floor behind it shows none, the board shows it; the
+    green half still lands on the floor. Without the board the floor shows red there."""
+    w, proj = _scene()
+    try:
+        r = w.renderer
+        cam = CameraView(160, 120, math.radians(70),
+                         Pose.from_xyz_rpy((-1.2, 0, 1.2), (0, math.radians(45), 0)),
+                         background=(0.2, 0.2, 0.2))
+        dark = r.render(cam).astype(int)
+        img = np.zeros((48, 64, 3), np.uint8)
+        img[:, :32] = (255, 0, 0)
+        img[:, 32:] = (0, 255, 0)
+        proj.set_image(img)
+        w.step(40)
+
+        def px(p, im):
+            u, v = [int(round(c)) for c in cam.project(p)[0]]
+            return im[v, u] - dark[v, u], (u, v)
+        shade, green = (0.0, 0.15, 0.0), (0.0, -0.1, 0.0)
+        free = r.render(cam).astype(int)
+        assert px(shade, free)[0][0] > 60                       # red on the floor
+        board = parse_urdf('''<robot name="board"><link name="b">
+          <visual><geometry><box size="0.1 0.1 0.01"/></geometry></visual></link>
+          <gazebo><static>true</static></gazebo>
+          <gazebo reference="b"><material>Gazebo/DarkGrey</material></gazebo></robot>''',
+                           name='board')
+        w.add_model(board, pose=Pose((0, 0.06, 0.5)))
+        w.step(40)
+        blocked = r.render(cam).astype(int)
+        gain, (u, v) = px(shade, blocked)
+        assert abs(gain[0]) < 12, gain                          # the board's shadow: no red
+        assert px(green, blocked)[0][1] > 60                    # green half unaffected
+        # the board itself shows the picture (its top, seen from the camera)
+        ub, vb = [int(round(c)) for c in cam.project((0, 0.06, 0.505))[0]]
+        assert blocked[vb, ub, 0] - blocked[vb, ub, 1] > 40
+        # without the shadow map the picture paints through the board onto the floor
+        r.projector_shadows = False
+        through = r.render(cam).astype(int)
+        assert px(shade, through)[0][0] > 60
+    finally:
+        w.shutdown()

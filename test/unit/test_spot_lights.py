@@ -10,7 +10,7 @@ from sim_world.render import CameraView
 from sim_world.render.renderer import cone_image
 from sim_world.sdf import parse_world
 from sim_world.transforms import Pose
-from sim_world.urdf import load_urdf_file
+from sim_world.urdf import load_urdf_file, parse_urdf
 from sim_world.world import World
 
 import os
@@ -130,3 +130,40 @@ def test_a_spot_lights_its_cone_and_not_beside_it_in_camera_and_light_sensor(wor
         expect = lt.spot_factor(to) * (-to[2] / np.linalg.norm(to)) / (2.0 / np.linalg.norm(c0))
         got = (pix(x, -0.3) - beside) / (centre - beside)
         assert got == pytest.approx(expect, abs=0.08), x
+
+
+def test_shadows_a_board_under_the_spot_shades_camera_and_light_sensor_alike(tmp_path):
+    """<scene><shadows>true</shadows>: a board between the spot and the floor leaves a
+    shadow in the camera image where the light sensor's ray cast finds the lamp blocked."""
+    path = tmp_path / 'spot.world'
+    path.write_text(SPOT_WORLD.replace('<scene>', '<scene><shadows>true</shadows>'))
+    w = World(physics='ode', seed=3)
+    try:
+        w.load_world_file(str(path))
+        assert w.shadows and w.renderer.spot_shadows
+        w.add_model(load_urdf_file(PHONE), pose=Pose((-0.05, -0.05, 0.05)))
+        board = parse_urdf('''<robot name="board"><link name="b">
+          <visual><geometry><box size="0.3 0.3 0.01"/></geometry></visual>
+          <collision><geometry><box size="0.3 0.3 0.01"/></geometry></collision></link>
+          <gazebo><static>true</static></gazebo></robot>''', name='board')
+        w.add_model(board, pose=Pose((0, 0, 1.0)))
+        cam = CameraView(200, 150, hfov=math.radians(70), pose=Pose.from_xyz_rpy(
+            (2.5, 0, 1.0), (0, math.atan2(1.0, 2.5), math.pi)))
+        img = w.renderer.render(cam).astype(float).mean(axis=2)
+
+        def pix(x, y):
+            (u, v), _ = cam.project((x, y, 0))
+            return img[int(round(v)), int(round(u))]
+        shade, lit, beside = pix(0.22, 0.1), pix(0.45, 0.1), pix(1.5, 0.1)
+        assert abs(shade - beside) < 4                   # in the board's shadow: ambient only
+        assert lit > shade + 40                          # in the cone, outside the shadow
+        lux, parts = _lux(w, (-0.05, -0.05))
+        assert 'spot' not in parts
+        _, parts_lit = _lux(w, (0.45 - 0.055, 0.1))
+        assert parts_lit.get('spot', 0) > 100
+        # without shadows the camera lights the floor under the board
+        w.renderer.spot_shadows = False
+        img = w.renderer.render(cam).astype(float).mean(axis=2)
+        assert pix(0.22, 0.1) > beside + 40
+    finally:
+        w.shutdown()

@@ -6,7 +6,9 @@ Supported (SDF 1.4-1.7 element names)::
     <gravity>0 0 -9.81</gravity>
     <physics><max_step_size>0.001</max_step_size><real_time_factor>1</real_time_factor>
              <gravity>...</gravity></physics>
-    <scene><ambient>r g b a</ambient><background>r g b a</background></scene>
+    <scene><ambient>r g b a</ambient><background>r g b a</background>
+           <shadows>false</shadows></scene>  (shadows: spot lights cast shadows in the cameras,
+           one depth pass per spot and frame; off unless set, unlike SDF's default, for speed)
     <light name type="directional|point|spot"><pose>x y z r p y</pose><diffuse/>
            <specular/><direction>x y z</direction><attenuation><range/></attenuation>
            <spot><inner_angle/><outer_angle/><falloff/></spot></light>
@@ -52,6 +54,7 @@ class WorldDescription(object):
         self.real_time_factor = None
         self.ambient = np.array([0.4, 0.4, 0.4, 1.0])
         self.background = np.array([0.7, 0.7, 0.7, 1.0])
+        self.shadows = False        # <scene><shadows>: spot lights cast shadows in cameras
         self.lights = []
         self.models = []
         self.environment = None     # sim_world.environment.Environment
@@ -283,6 +286,8 @@ def parse_world(text, base_dir=None):
         w.ambient = _vec(_child_text(wel, 'scene/ambient'), 4, 'scene ambient')
     if wel.find('scene/background') is not None:
         w.background = _vec(_child_text(wel, 'scene/background'), 4, 'scene background')
+    if wel.find('scene/shadows') is not None:
+        w.shadows = _bool(_child_text(wel, 'scene/shadows'))
     for lel in wel.findall('light'):
         w.lights.append(_light(lel))
     for iel in wel.findall('include'):

@@ -89,6 +89,7 @@ class World(object):
         self.models = OrderedDict()       # name -> Model
         self.plugins = OrderedDict()      # model name -> [Plugin]
         self.lights = []
+        self.shadows = False              # <scene><shadows>: spot lights' shadows in cameras
         self.ambient = np.array([0.4, 0.4, 0.4, 1.0])
         self.background = np.array([0.7, 0.7, 0.75, 1.0])
         self.steps = 0
@@ -110,6 +111,7 @@ class World(object):
         self.physics.set_gravity(desc.gravity)
         self.gravity = np.asarray(desc.gravity, float)
         self.lights = list(desc.lights)
+        self.shadows = bool(desc.shadows)
         self.ambient, self.background = desc.ambient, desc.background
         if desc.environment is not None:
             transmitters = self.environment.transmitters
@@ -118,7 +120,8 @@ class World(object):
         for m in desc.models:
             self.add_model(m)
         if self._renderer is not None:
-            self._renderer.set_lights(self.lights, ambient=self.ambient[:3])
+            self._renderer.set_lights(self.lights, ambient=self.ambient[:3],
+                                      shadows=self.shadows)
         return desc
 
     def add_model(self, model, pose=None):
@@ -180,7 +183,7 @@ class World(object):
         if self._renderer is None:
             from .render import Renderer
             r = Renderer()
-            r.set_lights(self.lights, ambient=self.ambient[:3])
+            r.set_lights(self.lights, ambient=self.ambient[:3], shadows=self.shadows)
             if hasattr(r, 'set_background'):
                 r.set_background(self.background)
             for m in self.models.values():

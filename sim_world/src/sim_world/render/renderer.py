@@ -343,10 +343,13 @@ class Renderer(object):
         for it, w in zip(its, world):
             it.world = w
 
-    def set_lights(self, lights, ambient=DEFAULT_AMBIENT, default_sun=True):
+    def set_lights(self, lights, ambient=DEFAULT_AMBIENT, default_sun=True, shadows=None):
         """sim_world.model.Light list (up to 8 are used) and the ambient colour (rgb 0..1).
-        With an empty list and ``default_sun`` the Gazebo default sun lights the scene."""
+        With an empty list and ``default_sun`` the Gazebo default sun lights the scene.
+        ``shadows`` (None: unchanged) sets ``spot_shadows``."""
         with self._lock:
+            if shadows is not None:
+                self.spot_shadows = bool(shadows)
             self._lights = list(lights or [])
             self._default_sun = default_sun
             self._ambient = tuple(float(c) for c in list(ambient)[:3])

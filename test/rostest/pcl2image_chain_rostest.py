@@ -24,7 +24,7 @@ class Chain(unittest.TestCase):
         cam = rospy.wait_for_message('/flycam/image_raw', Image, 30)
         a, b = image_to_rgb(rendered).astype(int), image_to_rgb(cam).astype(int)
         self.assertEqual(a.shape, b.shape)
-        self.assertEqual(rendered.header.frame_id, 'flycam_link')
+        self.assertEqual(rendered.header.frame_id, 'flycam_optical_frame')
         drawn = a.any(axis=2)
         self.assertGreater(drawn.mean(), 0.95, 'the room cloud should cover the image')
         diff = np.abs(a - b).mean(axis=2)

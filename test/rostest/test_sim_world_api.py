@@ -162,6 +162,22 @@ class SimWorldApi(unittest.TestCase):
         self.assertAlmostEqual(t.transform.translation.x, PHONE_SPAWN[0] + 0.032, places=3)
         self.assertAlmostEqual(t.transform.translation.z, PHONE_SPAWN[2] - 0.00544 - 0.00025,
                                places=3)
+        # the images' frame (REP 103): /tf_static carries the optical joint; optical z (the
+        # view direction) is the camera unit's +x, i.e. out of the phone's back (world -z)
+        o = buf.lookup_transform('mobile_camera_unit', 'mobile_camera_optical_frame',
+                                 rospy.Time(0), rospy.Duration(20))
+        q = o.transform.rotation
+        x, y, z, w = q.x, q.y, q.z, q.w
+        # columns of the rotation matrix: optical x, y, z in the camera unit's frame
+        zc = (2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y))
+        xc = (1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w))
+        for a, b in zip(zc, (1, 0, 0)):
+            self.assertAlmostEqual(a, b, places=6)
+        for a, b in zip(xc, (0, -1, 0)):
+            self.assertAlmostEqual(a, b, places=6)
+        flycam = buf.lookup_transform('flycam_link', 'flycam_optical_frame', rospy.Time(0),
+                                      rospy.Duration(20))
+        self.assertAlmostEqual(abs(flycam.transform.rotation.w), 0.5, places=6)
 
     def test_camera_move_moves_along_own_axes(self):
         # flycam yawed 90 degrees: its forward axis is the world's +y

@@ -58,7 +58,7 @@ def test_classic_syntax_phone_loads():
     cam = [p for p in m.plugins if p.filename == 'libgazebo_ros_camera.so'][0]
     assert cam.sensor_type == 'camera' and cam.link == 'mobile_camera_unit'
     assert cam.sensor.find('camera/image/width').text == '480'
-    assert cam.param('frameName') == 'mobile_camera_unit'
+    assert cam.param('frameName') == 'mobile_camera_optical_frame'
     vid = [p for p in m.plugins if p.filename == 'libgazebo_ros_video.so'][0]
     assert vid.param('bodyName') == 'mobile_display'
     # the classic model takes the inertia about the box's own axes

@@ -248,6 +248,7 @@ class GazeboRosApi(object):
         until = self.step_until
         if until is not None and not self.step_done.is_set() and \
                 self.world.sim_time + 0.5 * self.world.step_size >= until:
+            self.world.flush()          # the slice's camera frames are out before it ends
             self.paused = True
             self.publish()
             self.step_done.set()
@@ -336,6 +337,7 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
         if api.step_until is not None and api._step_reached():
             continue
         if api.paused:
+            world.flush()
             if now >= next_pub:
                 api.publish()
                 next_pub = now + max(pub_period, 0.1)
@@ -349,10 +351,10 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
             if rtf > 0:
                 target_sim = min(sim0 + (end - wall0) * rtf, stop)
                 while world.sim_time < target_sim and mono() < end:
-                    world.step()
+                    world.step(wait=False)
             else:
                 while world.sim_time < stop and mono() < end:
-                    world.step()
+                    world.step(wait=False)
         now = mono()
         if now >= next_pub:
             api.publish()

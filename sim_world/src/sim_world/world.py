@@ -90,6 +90,9 @@ class World(object):
         self.plugins = OrderedDict()      # model name -> [Plugin]
         self.lights = []
         self.shadows = False              # <scene><shadows>: spot lights' shadows in cameras
+        #: cameras render in the renderer's worker thread, overlapping the stepping (frames
+        #: still show and are stamped with their tick's scene and time; see step, flush)
+        self.parallel_render = True
         self.ambient = np.array([0.4, 0.4, 0.4, 1.0])
         self.background = np.array([0.7, 0.7, 0.75, 1.0])
         self.steps = 0
@@ -351,8 +354,11 @@ class World(object):
         ns = int(round(self.steps * self.step_size * 1e9))
         return rospy.Time(ns // 1000000000, ns % 1000000000)
 
-    def step(self, n=1):
-        """Advance n fixed steps, running plugins that fall due."""
+    def step(self, n=1, wait=True):
+        """Advance n fixed steps, running plugins that fall due. Cameras render in the
+        renderer's worker thread meanwhile (``parallel_render``); with ``wait`` every frame
+        of these steps has been delivered when step returns (``flush``); the run loop of
+        the sim_world node passes False and flushes when it pauses or ends a slice."""
         physics = self.physics
         dt = self.step_size
         for _ in range(n):
@@ -361,6 +367,15 @@ class World(object):
             self.sim_time = self.steps * dt
             if self.sim_time + 1e-12 >= self._next_plugin_time:
                 self._update_plugins()
+        if wait:
+            self.flush()
+
+    def flush(self):
+        """Return when the frame rendering in the renderer's worker thread (if any) has been
+        delivered (published, ``last_image`` set)."""
+        r = self._renderer
+        if r is not None and hasattr(r, 'wait_idle'):
+            r.wait_idle()
 
     def _update_plugins(self):
         t = self.sim_time
@@ -399,6 +414,7 @@ class World(object):
     def reset(self, time=False):
         """Gazebo's reset_world (poses back, twists zero); with time=True also the clock
         (reset_simulation)."""
+        self.flush()
         with self.lock:
             for name, pose in self._initial.items():
                 self.set_state(name, pose.copy())
@@ -412,6 +428,7 @@ class World(object):
             self._reschedule()
 
     def shutdown(self):
+        self.flush()
         for name in list(self.plugins):
             for p in self.plugins[name]:
                 try:

@@ -286,8 +286,20 @@ class CameraPlugin(Plugin):
         if not want:
             return
         pose = self.world.link_pose(self.model.name, self.link)
-        rgb, depth = self.camera.render(self.world.renderer, pose, depth=want_depth)
         stamp = self.world.ros_now() if self._pubs else None
+        renderer = self.world.renderer
+        if getattr(self.world, 'parallel_render', False) and hasattr(renderer, 'submit'):
+            # rendered and published by the renderer's worker thread while the world steps
+            # on; the frame shows the scene of this tick, stamped with this tick's time
+            self.camera.submit(renderer, pose,
+                               lambda rgb, depth: self._deliver(rgb, depth, stamp, want_depth),
+                               depth=want_depth)
+            return
+        rgb, depth = self.camera.render(renderer, pose, depth=want_depth)
+        self._deliver(rgb, depth, stamp, want_depth)
+
+    def _deliver(self, rgb, depth, stamp, want_depth):
+        """The messages of one rendered frame, published."""
         img = self.camera.image_msg(rgb, stamp, self.frame_id, self.encoding)
         info = self.camera.camera_info(stamp, self.frame_id)
         cloud = depth_img = None
@@ -312,6 +324,8 @@ class CameraPlugin(Plugin):
                 pubs['depth_info'].publish(info)
 
     def shutdown(self):
+        if getattr(self.world, 'flush', None) is not None:
+            self.world.flush()
         for s in self._subs:
             s.unregister()
         for p in self._pubs.values():

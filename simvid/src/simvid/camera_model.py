@@ -335,6 +335,17 @@ class SimCamera(object):
             return self.distorter.apply(rgb, bg), self.distorter.apply_depth(d)
         return self.distorter.apply(renderer.render(self.view(pose)), bg), None
 
+    def submit(self, renderer, pose, done, depth=False):
+        """Like ``render``, in the renderer's worker thread (``Renderer.submit``): returns
+        at once; ``done(rgb, depth or None)`` is called there with the published image."""
+        bgf = self.background or getattr(renderer, 'background', (0.7, 0.7, 0.75))
+        bg = tuple(int(round(255 * c)) for c in bgf[:3])
+        distorter = self.distorter
+
+        def finish(rgb, d):
+            done(distorter.apply(rgb, bg), distorter.apply_depth(d) if depth else None)
+        renderer.submit(self.view(pose), finish, depth=depth)
+
     def camera_info(self, stamp=None, frame_id=''):
         return camera_info(self.intr, stamp, frame_id)
 

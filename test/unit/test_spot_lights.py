@@ -167,3 +167,50 @@ def test_shadows_a_board_under_the_spot_shades_camera_and_light_sensor_alike(tmp
         assert pix(0.22, 0.1) > beside + 40
     finally:
         w.shutdown()
+
+
+SUN_WORLD = '''<sdf version="1.6"><world name="sun">
+  <scene><ambient>0.2 0.2 0.2 1</ambient><shadows>true</shadows></scene>
+  <light name="sun" type="directional">
+    <diffuse>0.8 0.8 0.8 1</diffuse>
+    <direction>0.3 0.2 -1</direction>
+  </light>
+  <include><uri>model://ground_plane</uri></include>
+  <model name="board"><static>true</static><pose>0 0 1 0 0 0</pose>
+    <link name="l">
+      <visual name="v"><geometry><box><size>0.6 0.6 0.02</size></box></geometry></visual>
+      <collision name="c"><geometry><box><size>0.6 0.6 0.02</size></box></geometry></collision>
+    </link></model>
+</world></sdf>'''
+
+
+def test_sun_shadows_in_the_camera_with_scene_shadows(tmp_path):
+    """<scene><shadows>true</shadows>: a board 1 m over the ground casts the sun's shadow
+    (offset along the sun's direction), where the light sensor's ray finds the sun blocked;
+    without shadows the camera lights the ground there."""
+    path = tmp_path / 'sun.world'
+    path.write_text(SUN_WORLD)
+    w = World(physics='ode', seed=3)
+    try:
+        w.load_world_file(str(path))
+        assert w.renderer.sun_shadows
+        cam = CameraView(200, 150, hfov=math.radians(90), pose=Pose.from_xyz_rpy(
+            (-2.0, 0.0, 2.5), (0, math.radians(50), 0)))
+        d = np.array([0.3, 0.2, -1.0])
+        shade = np.array([0.0, 0.0, 1.0]) + d * 1.0          # under the board along the sun
+        img = w.renderer.render(cam).astype(float).mean(axis=2)
+
+        def pix(p):
+            (u, v), _ = cam.project(p)
+            return img[int(round(v)), int(round(u))]
+        in_shadow, lit = pix(shade), pix(shade + (0, 1.0, 0))   # beside it
+        assert lit > in_shadow + 40
+        assert in_shadow < 40                                # ambient only: 0.2 x the ground
+        w.renderer.sun_shadows = False
+        img = w.renderer.render(cam).astype(float).mean(axis=2)
+        assert abs(pix(shade) - pix(shade + (0, 1.0, 0))) < 8   # both lit without shadows
+        # the light sensor agrees: its ray to the sun is blocked there, free beside it
+        assert w.raycast(shade + (0, 0, 0.01), -d / np.linalg.norm(d), 100) is not None
+        assert w.raycast(shade + (0, 1.0, 0.01), -d / np.linalg.norm(d), 100) is None
+    finally:
+        w.shutdown()

@@ -7,8 +7,9 @@ Supported (SDF 1.4-1.7 element names)::
     <physics><max_step_size>0.001</max_step_size><real_time_factor>1</real_time_factor>
              <gravity>...</gravity></physics>
     <scene><ambient>r g b a</ambient><background>r g b a</background>
-           <shadows>false</shadows></scene>  (shadows: spot lights cast shadows in the cameras,
-           one depth pass per spot and frame; off unless set, unlike SDF's default, for speed)
+           <shadows>false</shadows></scene>  (shadows: spot lights and the sun cast shadows in
+           the cameras, a depth pass per light and frame; off unless set, unlike SDF's
+           default, for speed)
     <light name type="directional|point|spot"><pose>x y z r p y</pose><diffuse/>
            <specular/><direction>x y z</direction><attenuation><range/></attenuation>
            <spot><inner_angle/><outer_angle/><falloff/></spot></light>

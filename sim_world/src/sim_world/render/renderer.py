@@ -5,7 +5,8 @@ into grids by ``shapes`` so point lights stay smooth): on llvmpipe it is many ti
 than an equivalent per-pixel GLSL shader, which was measured at 10-60 fps for a full
 480x800 frame against 150-300 fps here. Spot lights and projectors are per pixel: an
 additive projective-texturing pass each (the spot's cone as an image, ``cone_image``), with
-a shadow map for occlusion (projectors always, spots with ``spot_shadows``).
+a shadow map for occlusion (projectors always, spots with ``spot_shadows``); with
+``sun_shadows`` directional lights are such a pass too (no image, an orthographic map).
 
 Threading: every public method may be called from any thread; all GL work happens under
 the context lock. Images handed in by ROS callbacks (``set_dynamic_texture``) are uploaded
@@ -180,6 +181,7 @@ class Renderer(object):
         #: on request (one more depth pass per spot and frame)
         self.projector_shadows = True
         self.spot_shadows = False
+        self.sun_shadows = False       # directional lights too (an orthographic shadow map)
         self.shadow_size = 512
         # the worker thread of submit(): one frame in flight at most; every other entry
         # point waits for it first, so a frame shows the scene as it was when submitted
@@ -357,11 +359,11 @@ class Renderer(object):
     def set_lights(self, lights, ambient=DEFAULT_AMBIENT, default_sun=True, shadows=None):
         """sim_world.model.Light list (up to 8 are used) and the ambient colour (rgb 0..1).
         With an empty list and ``default_sun`` the Gazebo default sun lights the scene.
-        ``shadows`` (None: unchanged) sets ``spot_shadows``."""
+        ``shadows`` (None: unchanged) sets ``spot_shadows`` and ``sun_shadows``."""
         self.wait_idle()
         with self._lock:
             if shadows is not None:
-                self.spot_shadows = bool(shadows)
+                self.spot_shadows = self.sun_shadows = bool(shadows)
             self._lights = list(lights or [])
             self._default_sun = default_sun
             self._ambient = tuple(float(c) for c in list(ambient)[:3])
@@ -488,6 +490,11 @@ class Renderer(object):
                             exclude=pr.model))
         lights = self._lights or []
         for i, lt in enumerate(lights[:8]):
+            if lt.kind == 'directional' and self.sun_shadows:
+                sun = self._sun_record(i, lt)
+                if sun is not None:
+                    out.append(sun)
+                continue
             if lt.kind != 'spot':
                 continue
             fov = min(max(lt.outer_angle, 1e-3), 2 * math.radians(_SPOT_MAX_HALF_DEG))
@@ -508,6 +515,42 @@ class Renderer(object):
                             shadow=self.spot_shadows, exclude=None))
         return out
 
+    def _sun_record(self, i, lt):
+        """A directional light as a projected light: no image, no clip planes, light from
+        its direction, an orthographic shadow map around what casts shadows (every opaque
+        visual but open planes such as the ground, which only receive them)."""
+        d = lt.world_direction()
+        centres, radii = [], []
+        for items in self._items.values():
+            for it in items:
+                if it.transparent or (it.mesh.double_sided and not it.mesh.parts):
+                    continue
+                r = getattr(it.mesh, '_radius', None)
+                if r is None:
+                    pts = it.mesh.positions
+                    r = it.mesh._radius = float(np.sqrt((pts.astype(float) ** 2).sum(axis=1)
+                                                        .max())) if len(pts) else 0.0
+                centres.append(it.world[:3, 3])
+                radii.append(r * float(np.abs(it.world[:3, :3]).sum(axis=0).max()))
+        if not centres:
+            return None
+        centres, radii = np.array(centres), np.array(radii)
+        lo, hi = (centres - radii[:, None]).min(axis=0), (centres + radii[:, None]).max(axis=0)
+        c, r = (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 0.1)
+        M = np.eye(4)
+        M[:3, :3] = _frame_along(d)
+        M[:3, 3] = c - d * (r + 0.5)
+        return dict(key=('sun', i), M=M, ortho=r, size=(1, 1), near=0.01, far=2 * r + 1.0,
+                    tex=None, diffuse=tuple(float(v) for v in lt.diffuse[:4]),
+                    att=(1.0, 0.0, 0.0), shadow=True, exclude=None,
+                    position=(-d[0], -d[1], -d[2], 0.0))
+
+    @staticmethod
+    def _ortho(r, near, far):
+        return np.array([[1.0 / r, 0, 0, 0], [0, 1.0 / r, 0, 0],
+                         [0, 0, -2.0 / (far - near), -(far + near) / (far - near)],
+                         [0, 0, 0, 1.0]])
+
     def _shadow_view(self, pl):
         w, h = pl['size']
         s = float(self.shadow_size)
@@ -519,14 +562,20 @@ class Renderer(object):
         """Depth of every opaque visual (but those of the model ``exclude``: the projector's
         own phone) seen from the light's frustum, into its depth texture (a shadow map)."""
         from OpenGL import GL
-        view = self._shadow_view(pl)
-        pl['depth_tex'] = self.ctx.depth_target(pl['key'], view.width, view.height)
-        pl['shadow_view'] = view
+        if pl.get('ortho'):
+            size = int(self.shadow_size) * 2
+            pl['depth_tex'] = self.ctx.depth_target(pl['key'], size, size)
+            P = self._ortho(pl['ortho'], pl['near'], pl['far'])
+        else:
+            view = self._shadow_view(pl)
+            pl['depth_tex'] = self.ctx.depth_target(pl['key'], view.width, view.height)
+            P = view.projection_matrix()
+        Vs = EYE_FROM_LINK.dot(np.linalg.inv(pl['M']))
+        pl['shadow_matrix'] = P.dot(Vs)
         GL.glClear(GL.GL_DEPTH_BUFFER_BIT)
         GL.glMatrixMode(GL.GL_PROJECTION)
-        GL.glLoadMatrixd(view.projection_matrix().T.ravel())
+        GL.glLoadMatrixd(P.T.ravel())
         GL.glMatrixMode(GL.GL_MODELVIEW)
-        Vs = EYE_FROM_LINK.dot(np.linalg.inv(pl['M']))
         GL.glUseProgram(0)
         GL.glColorMask(GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE, GL.GL_FALSE)
         for cap in (GL.GL_LIGHTING, GL.GL_TEXTURE_2D, GL.GL_CULL_FACE, GL.GL_BLEND,
@@ -596,23 +645,25 @@ class Renderer(object):
         B = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
         for pl in plights:
             M = pl['M']
-            w, h = pl['size']
-            view = CameraView(w, h, hfov=pl['fov'], near=pl['near'], far=pl['far'])
             Vp = EYE_FROM_LINK.dot(np.linalg.inv(M))
-            Pp = view.projection_matrix(flip_y=True)
             pos, fwd = M[:3, 3], M[:3, 0] / np.linalg.norm(M[:3, 0])
             GL.glLoadMatrixd(V.T.ravel())          # planes and light given in world frame
-            self._texgen(1, B.dot(Pp).dot(Vp))
-            GL.glBindTexture(GL.GL_TEXTURE_2D, pl['tex'])
+            if pl['tex'] is not None:
+                w, h = pl['size']
+                view = CameraView(w, h, hfov=pl['fov'], near=pl['near'], far=pl['far'])
+                self._texgen(1, B.dot(view.projection_matrix(flip_y=True)).dot(Vp))
+                GL.glBindTexture(GL.GL_TEXTURE_2D, pl['tex'])
             if pl.get('depth_tex') is not None:
-                sv = pl['shadow_view']
-                self._texgen(2, B.dot(sv.projection_matrix()).dot(Vp))
+                self._texgen(2, B.dot(pl['shadow_matrix']))
                 GL.glBindTexture(GL.GL_TEXTURE_2D, pl['depth_tex'])
             GL.glActiveTexture(GL.GL_TEXTURE0)
-            GL.glClipPlane(GL.GL_CLIP_PLANE0, tuple(np.r_[fwd, -fwd.dot(pos) - pl['near']]))
-            GL.glClipPlane(GL.GL_CLIP_PLANE1, tuple(np.r_[-fwd, fwd.dot(pos) + pl['far']]))
-            GL.glEnable(GL.GL_CLIP_PLANE0)
-            GL.glEnable(GL.GL_CLIP_PLANE1)
+            if pl['tex'] is not None:               # a directional light is not clipped
+                GL.glClipPlane(GL.GL_CLIP_PLANE0,
+                               tuple(np.r_[fwd, -fwd.dot(pos) - pl['near']]))
+                GL.glClipPlane(GL.GL_CLIP_PLANE1,
+                               tuple(np.r_[-fwd, fwd.dot(pos) + pl['far']]))
+                GL.glEnable(GL.GL_CLIP_PLANE0)
+                GL.glEnable(GL.GL_CLIP_PLANE1)
             GL.glLightModelfv(GL.GL_LIGHT_MODEL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
             for i in range(1, 8):
                 GL.glDisable(GL.GL_LIGHT0 + i)
@@ -620,7 +671,8 @@ class Renderer(object):
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_AMBIENT, (0.0, 0.0, 0.0, 1.0))
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_DIFFUSE, pl['diffuse'])
             GL.glLightfv(GL.GL_LIGHT0, GL.GL_SPECULAR, (0.0, 0.0, 0.0, 1.0))
-            GL.glLightfv(GL.GL_LIGHT0, GL.GL_POSITION, (pos[0], pos[1], pos[2], 1.0))
+            GL.glLightfv(GL.GL_LIGHT0, GL.GL_POSITION,
+                         pl.get('position', (pos[0], pos[1], pos[2], 1.0)))
             GL.glLightf(GL.GL_LIGHT0, GL.GL_SPOT_CUTOFF, 180.0)
             GL.glLightf(GL.GL_LIGHT0, GL.GL_CONSTANT_ATTENUATION, pl['att'][0])
             GL.glLightf(GL.GL_LIGHT0, GL.GL_LINEAR_ATTENUATION, pl['att'][1])
@@ -855,6 +907,9 @@ class Renderer(object):
                 continue
             GL.glLightfv(L, GL.GL_DIFFUSE, tuple(float(c) for c in lt.diffuse[:4]))
             GL.glLightfv(L, GL.GL_SPECULAR, tuple(float(c) for c in lt.specular[:4]))
+            if lt.kind == 'directional' and self.sun_shadows:
+                GL.glDisable(L)          # drawn by the projective pass, shadowed
+                continue
             if lt.kind == 'directional':
                 d = lt.pose.rotate(lt.direction)
                 n = np.linalg.norm(d)

@@ -19,14 +19,17 @@ def _parser(prog):
     p.add_argument('files', nargs='+', metavar='FILE|DIR',
                    help='scenario file(s); with --jobs also folders of *.yaml')
     p.add_argument('--seed', type=int, help='override the scenario\'s seed')
-    p.add_argument('--record', metavar='BAG', help='write a rosbag of the run')
+    p.add_argument('--record', metavar='BAG|MCAP', action='append',
+                   help='write a recording of the run: .mcap = MCAP (ROS 1 encoding), else a '
+                   'rosbag; may be given twice (both from the same messages); with --jobs: a '
+                   'folder')
     p.add_argument('--junit', metavar='XML', help='write JUnit XML (with --jobs: a folder)')
     p.add_argument('--real-time-factor', type=float, dest='rtf', metavar='R',
                    help='0 = as fast as possible (override the scenario\'s)')
     p.add_argument('--attach', action='store_true',
                    help='use the running world at ROS_MASTER_URI (rostest)')
-    p.add_argument('--replay', metavar='BAG', help='play a recording as the clock source, '
-                   'no world; the apps and expectations run again')
+    p.add_argument('--replay', metavar='BAG|MCAP', help='play a recording (rosbag or MCAP) '
+                   'as the clock source, no world; the apps and expectations run again')
     p.add_argument('--jobs', type=int, default=0, metavar='N',
                    help='run the scenarios N at a time, each with its own master port')
     p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
@@ -34,6 +37,13 @@ def _parser(prog):
     p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
     p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
     return p
+
+
+def _record_arg(record):
+    """--record given once: its path; twice or more: the list (one writer each)."""
+    if not record:
+        return None
+    return record[0] if len(record) == 1 else list(record)
 
 
 def _expand(items):
@@ -70,7 +80,7 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    res = run_file(files[0], seed=a.seed, record=a.record, junit=a.junit,
+    res = run_file(files[0], seed=a.seed, record=_record_arg(a.record), junit=a.junit,
                    real_time_factor=a.rtf, attach=a.attach, replay=a.replay)
     if a.text:          # rostest --text: the summary a rosunit test node prints
         errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])
@@ -85,9 +95,9 @@ def main(argv=None, prog='run_scenario'):
 def replay_main(argv=None):
     argv = list(sys.argv if argv is None else argv)
     a = [x for x in argv[1:]]
-    if len(a) >= 2 and not a[0].startswith('-') and a[1].endswith('.bag'):
+    if len(a) >= 2 and not a[0].startswith('-') and a[1].endswith(('.bag', '.mcap')):
         return main([argv[0], a[0], '--replay', a[1]] + a[2:], prog='replay_scenario')
-    print('usage: replay_scenario FILE BAG [--junit XML] [--record BAG2]')
+    print('usage: replay_scenario FILE BAG|MCAP [--junit XML] [--record BAG2]')
     return EXIT_ERROR
 
 
@@ -112,9 +122,9 @@ def farm(files, jobs, a, out=print):
             if a.junit:
                 os.makedirs(a.junit, exist_ok=True)
                 cmd += ['--junit', os.path.join(a.junit, name + '.xml')]
-            if a.record:
-                os.makedirs(a.record, exist_ok=True)
-                cmd += ['--record', os.path.join(a.record, name + '.bag')]
+            if a.record:                    # a folder: <name>.bag
+                os.makedirs(a.record[0], exist_ok=True)
+                cmd += ['--record', os.path.join(a.record[0], name + '.bag')]
             env = dict(os.environ)
             env.pop('ROS_MASTER_URI', None)    # each job starts its own master (free port)
             p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,

@@ -25,14 +25,14 @@ def read_meta(bag):
 
 
 def replay_run(r):
-    import rosbag
     import rospy
     from rosgraph_msgs.msg import Clock
-    try:
-        bag = rosbag.Bag(r.replay)
-    except Exception as e:  # noqa: BLE001 - missing file, not a bag
-        raise RunError('cannot open the recording %s: %s' % (r.replay, e))
-    meta = read_meta(bag)
+    from .mcap_io import RecordingError, open_reader
+    try:       # a rosbag or an MCAP file (told by its first bytes)
+        bag = open_reader(r.replay)
+        meta = read_meta(bag)
+    except RecordingError as e:
+        raise RunError(str(e))
     if meta is None:
         raise RunError('%s is not a run_scenario recording (no %s message)'
                        % (r.replay, META_TOPIC))
@@ -50,17 +50,21 @@ def replay_run(r):
     clock = rospy.Publisher('/clock', Clock, queue_size=100)
     pubs = {}
     msgs = []
-    for topic, msg, t in bag.read_messages():
-        if topic in inputs:
-            if topic not in pubs:
-                pubs[topic] = rospy.Publisher(topic, type(msg), queue_size=10000,
-                                              latch=topic == '/gazebo/environment')
-            msgs.append((t.to_sec(), topic, msg))
-        elif topic == EVENTS_TOPIC:
-            ev = json.loads(msg.data)
-            if ev.get('text') == 'event':
-                msgs.append((t.to_sec(), EVENTS_TOPIC, ev))
-    bag.close()
+    try:
+        for topic, msg, t in bag.read_messages():
+            if topic in inputs:
+                if topic not in pubs:
+                    pubs[topic] = rospy.Publisher(topic, type(msg), queue_size=10000,
+                                                  latch=topic == '/gazebo/environment')
+                msgs.append((t.to_sec(), topic, msg))
+            elif topic == EVENTS_TOPIC:
+                ev = json.loads(msg.data)
+                if ev.get('text') == 'event':
+                    msgs.append((t.to_sec(), EVENTS_TOPIC, ev))
+    except RecordingError as e:
+        raise RunError(str(e))
+    finally:
+        bag.close()
     if r.record_path:
         r._open_bag()
     r.t0 = r.t = float(meta.get('t0', 0.0))

@@ -948,10 +948,8 @@ class Runner(object):
                     e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
 
     def _open_bag(self):
-        import rosbag
-        d = os.path.dirname(os.path.abspath(self.record_path))
-        os.makedirs(d, exist_ok=True)
-        self.bag = rosbag.Bag(self.record_path, 'w')
+        from .mcap_io import open_writer      # .bag: rosbag, .mcap: MCAP (ROS 1); a list: all
+        self.bag = open_writer(self.record_path)
 
     def _meta(self):
         if self.bag is None:

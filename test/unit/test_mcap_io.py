@@ -1,0 +1,96 @@
+"""testing_instance.mcap_io: recordings as rosbag or MCAP (ROS 1), no roscore.
+
+The same messages written to a rosbag and an MCAP file read back equal (bytes, times,
+topics, types); the MCAP file is what Foxglove reads (profile ros1, ros1msg schemas with the
+message definition); a file that is not a recording or is cut short is one clear error."""
+import os
+
+import pytest
+
+rospy = pytest.importorskip('rospy')
+pytest.importorskip('mcap_ros1')
+
+from testing_instance.mcap_io import (RecordingError, open_reader,  # noqa: E402
+                                      open_writer)
+
+
+def _messages():
+    from sensor_msgs.msg import Image, Imu
+    from std_msgs.msg import String
+    out = []
+    for i in range(20):
+        imu = Imu()
+        imu.header.stamp = rospy.Time(0, 10_000_000 * i)
+        imu.header.frame_id = 'imu'
+        imu.linear_acceleration.z = 9.81 + 0.01 * i
+        out.append(('/mobile_device/imu_sensor_data', imu, imu.header.stamp))
+    img = Image(height=2, width=3, encoding='rgb8', step=9, data=bytes(range(18)))
+    img.header.stamp = rospy.Time(0, 50_000_000)
+    out.append(('/mobile_device/image_raw', img, img.header.stamp))
+    out.append(('/scenario/events', String('{"id": "e"}'), rospy.Time(0, 70_000_000)))
+    return out
+
+
+def test_bag_and_mcap_written_together_read_back_equal(tmp_path):
+    bag, mc = str(tmp_path / 'r.bag'), str(tmp_path / 'r.mcap')
+    w = open_writer([bag, mc])
+    for topic, msg, t in _messages():
+        w.write(topic, msg, t)
+    w.close()
+    with open(mc, 'rb') as f:
+        assert f.read(8) == b'\x89MCAP0\r\n'
+    got = {}
+    for path in (bag, mc):
+        r = open_reader(path)
+        got[path] = [(tp, t.to_nsec(), raw) for tp, raw, t in r.read_messages(raw=True)]
+        decoded = list(r.read_messages())
+        r.close()
+        assert len(decoded) == 22
+        imu = [m for tp, m, _t in decoded if tp == '/mobile_device/imu_sensor_data']
+        assert imu[3].linear_acceleration.z == pytest.approx(9.84)
+        assert imu[3]._type == 'sensor_msgs/Imu'
+    key = lambda x: (x[0], x[1])  # noqa: E731
+    assert sorted(got[bag], key=key) == sorted(got[mc], key=key)
+    # Foxglove's view: ros1 profile, ros1msg schema with the full definition
+    from mcap.reader import make_reader
+    with open(mc, 'rb') as f:
+        r = make_reader(f)
+        assert r.get_header().profile == 'ros1'
+        summ = r.get_summary()
+        schemas = {s.name: s for s in summ.schemas.values()}
+        assert schemas['sensor_msgs/Imu'].encoding == 'ros1msg'
+        assert b'geometry_msgs/Vector3 linear_acceleration' in schemas['sensor_msgs/Imu'].data
+        assert {c.message_encoding for c in summ.channels.values()} == {'ros1'}
+
+
+def test_topics_filter_and_single_mcap(tmp_path):
+    mc = str(tmp_path / 'only.mcap')
+    w = open_writer(mc)
+    for topic, msg, t in _messages():
+        w.write(topic, msg, t)
+    w.close()
+    r = open_reader(mc)
+    got = [m.data for _tp, m, _t in r.read_messages(topics=['/scenario/events'])]
+    assert got == ['{"id": "e"}']
+
+
+def test_not_a_recording_and_truncated_are_one_clear_error(tmp_path):
+    junk = tmp_path / 'junk.mcap'
+    junk.write_text('hello, no recording here\n')
+    with pytest.raises(RecordingError, match=r'junk.mcap is not a recording \(neither a '
+                       r'rosbag nor an MCAP file'):
+        open_reader(str(junk))
+    with pytest.raises(RecordingError, match='cannot open the recording'):
+        open_reader(str(tmp_path / 'missing.bag'))
+    mc = str(tmp_path / 'cut.mcap')
+    w = open_writer(mc)
+    for topic, msg, t in _messages():
+        w.write(topic, msg, t)
+    w.close()
+    data = open(mc, 'rb').read()
+    cut = tmp_path / 'cut_short.mcap'
+    cut.write_bytes(data[:len(data) // 2])
+    r = open_reader(str(cut))
+    with pytest.raises(RecordingError, match=r'cut_short.mcap \(truncated or damaged\?\)'):
+        list(r.read_messages())
+    assert os.path.getsize(str(cut)) < len(data)

@@ -1,0 +1,186 @@
+"""Recordings of a scenario run: rosbag (the default) or MCAP with ROS 1 encoding.
+
+``open_writer(paths)`` gives an object with rosbag.Bag's writing API (``write(topic, msg,
+t)``, ``close()``) for one path or a list of paths; a path ending in ``.mcap`` is written as
+MCAP (profile ``ros1``, schema encoding ``ros1msg``, message encoding ``ros1``: what
+Foxglove opens directly; the ``mcap`` and ``mcap-ros1-support`` packages), any other path as
+a rosbag. ``--record run.bag --record run.mcap`` writes both from the same messages.
+
+``open_reader(path)`` reads either kind back (the format is told by the file's first bytes,
+not its name): ``read_messages(topics=None, raw=False)`` yields ``(topic, msg, t)`` in the
+order of t (rospy.Time; ``raw=True``: the serialized bytes instead of msg). A file that is
+neither, or is cut short, raises RecordingError with one line naming the file and what is
+wrong.
+"""
+import io
+import os
+
+__all__ = ['open_writer', 'open_reader', 'RecordingError', 'is_mcap_path', 'MCAP_MAGIC',
+           'BAG_MAGIC', 'McapWriter']
+
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+BAG_MAGIC = b'#ROSBAG V2.0\n'
+
+
+class RecordingError(Exception):
+    """The recording cannot be read (missing, not a recording, truncated)."""
+
+
+def is_mcap_path(path):
+    return str(path).lower().endswith('.mcap')
+
+
+class McapWriter(object):
+    """rosbag.Bag's writing API over an MCAP file with ROS 1 messages."""
+
+    def __init__(self, path):
+        from mcap_ros1.writer import Writer
+        self.path = str(path)
+        self._f = open(self.path, 'wb')
+        self._w = Writer(self._f)
+
+    def write(self, topic, msg, t=None):
+        ns = t.to_nsec() if t is not None else None
+        self._w.write_message(topic, msg, log_time=ns, publish_time=ns)
+
+    def close(self):
+        if self._w is not None:
+            self._w.finish()
+            self._f.close()
+            self._w = None
+
+
+class _Multi(object):
+    def __init__(self, writers):
+        self.writers = writers
+
+    def write(self, topic, msg, t=None):
+        for w in self.writers:
+            w.write(topic, msg, t)
+
+    def close(self):
+        for w in self.writers:
+            w.close()
+
+
+def _one_writer(path):
+    d = os.path.dirname(os.path.abspath(str(path)))
+    os.makedirs(d, exist_ok=True)
+    if is_mcap_path(path):
+        return McapWriter(path)
+    import rosbag
+    return rosbag.Bag(str(path), 'w')
+
+
+def open_writer(paths):
+    """A writer for one path (str) or several (list): .mcap -> MCAP, else rosbag."""
+    if isinstance(paths, (str, bytes, os.PathLike)):
+        paths = [paths]
+    writers = [_one_writer(p) for p in paths]
+    return writers[0] if len(writers) == 1 else _Multi(writers)
+
+
+def record_paths(record):
+    """The list of recording paths of a --record value (None, a path or a list)."""
+    if not record:
+        return []
+    if isinstance(record, (str, bytes, os.PathLike)):
+        return [record]
+    return list(record)
+
+
+def _kind(path):
+    try:
+        with open(path, 'rb') as f:
+            head = f.read(16)
+    except OSError as e:
+        raise RecordingError('cannot open the recording %s: %s' % (path, e.strerror or e))
+    if head.startswith(MCAP_MAGIC):
+        return 'mcap'
+    if head.startswith(BAG_MAGIC):
+        return 'bag'
+    raise RecordingError('%s is not a recording (neither a rosbag nor an MCAP file: it '
+                         'starts with %r)' % (path, head[:8]))
+
+
+class _BagReader(object):
+    def __init__(self, path):
+        import rosbag
+        try:
+            self.bag = rosbag.Bag(path)
+        except Exception as e:  # noqa: BLE001 - rosbag raises several kinds
+            raise RecordingError('cannot read the rosbag %s: %s' % (path, e))
+        self.path = path
+
+    def read_messages(self, topics=None, raw=False):
+        try:
+            for topic, msg, t in self.bag.read_messages(topics=topics, raw=raw):
+                yield topic, (bytes(msg[1]) if raw else msg), t
+        except Exception as e:  # noqa: BLE001
+            raise RecordingError('cannot read the rosbag %s: %s' % (self.path, e))
+
+    def close(self):
+        self.bag.close()
+
+
+class _McapReader(object):
+    def __init__(self, path):
+        self.path = path
+        self.f = open(path, 'rb')
+        self.classes = {}
+
+    def _class(self, schema, channel):
+        key = schema.id
+        if key not in self.classes:
+            cls = None
+            try:
+                import roslib.message
+                cls = roslib.message.get_message_class(schema.name)
+            except Exception:  # noqa: BLE001 - unknown package
+                cls = None
+            md5 = channel.metadata.get('md5sum') if channel.metadata else None
+            text = schema.data.decode()
+            if cls is None or (md5 and cls._md5sum != md5) or \
+                    (not md5 and cls._full_text.strip() != text.strip()):
+                from genpy import dynamic
+                cls = dynamic.generate_dynamic(schema.name, text)[schema.name]
+            self.classes[key] = cls
+        return self.classes[key]
+
+    def read_messages(self, topics=None, raw=False):
+        import rospy
+        from mcap.reader import make_reader
+        from mcap.exceptions import McapError
+        self.f.seek(0)
+        try:
+            reader = make_reader(self.f)
+            for schema, channel, m in reader.iter_messages(topics=topics,
+                                                           log_time_order=True):
+                t = rospy.Time(m.log_time // 10 ** 9, m.log_time % 10 ** 9)
+                if raw:
+                    yield channel.topic, bytes(m.data), t
+                    continue
+                if schema is None or channel.message_encoding != 'ros1':
+                    raise RecordingError('%s: channel %s is not ROS 1 encoded (%s)' % (
+                        self.path, channel.topic, channel.message_encoding))
+                msg = self._class(schema, channel)()
+                msg.deserialize(m.data)
+                yield channel.topic, msg, t
+        except RecordingError:
+            raise
+        except (McapError, EOFError, ValueError, OSError, KeyError, AssertionError,
+                io.UnsupportedOperation) as e:
+            raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
+                                 '%s' % (self.path, type(e).__name__, e))
+        except Exception as e:  # noqa: BLE001 - anything else a damaged file raises
+            raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
+                                 '%s' % (self.path, type(e).__name__, e))
+
+    def close(self):
+        self.f.close()
+
+
+def open_reader(path):
+    """A reader of a rosbag or an MCAP file (told apart by their first bytes)."""
+    path = str(path)
+    return _McapReader(path) if _kind(path) == 'mcap' else _BagReader(path)

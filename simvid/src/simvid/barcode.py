@@ -21,8 +21,8 @@ import numpy as np
 
 from .imageconv import UnsupportedEncoding, image_to_array
 
-__all__ = ['BarcodeError', 'symbol_name', 'to_gray', 'decode', 'format_barcode', 'Throttle',
-           'BarcodeReader']
+__all__ = ['BarcodeError', 'symbol_name', 'to_gray', 'decode', 'locate', 'format_barcode',
+           'Throttle', 'BarcodeReader']
 
 log = logging.getLogger('simvid.barcode')
 
@@ -98,6 +98,12 @@ def _text(data):
 def decode(image, encoding='rgb8'):
     """All barcodes zbar finds in ``image`` (array, see ``to_gray``), in zbar's order, as
     ``[(type name, data text)]``."""
+    return [(t, d) for t, d, _poly in locate(image, encoding)]
+
+
+def locate(image, encoding='rgb8'):
+    """Like ``decode``, with where each code lies: ``[(type name, data text, [(x, y), ...])]``
+    (zbar's polygon in image pixels; the scenario report outlines it)."""
     pyzbar = _zbar()
     gray = to_gray(image, encoding)
     h, w = gray.shape
@@ -105,7 +111,8 @@ def decode(image, encoding='rgb8'):
         found = pyzbar.decode((gray.tobytes(), w, h))
     except Exception as e:  # noqa: BLE001 - pyzbar raises its own and ctypes errors
         raise BarcodeError('zbar failed on a %dx%d image: %s' % (w, h, e))
-    return [(symbol_name(d.type), _text(d.data)) for d in found]
+    return [(symbol_name(d.type), _text(d.data), [(int(p.x), int(p.y)) for p in d.polygon])
+            for d in found]
 
 
 def format_barcode(type_name, data):

@@ -24,6 +24,9 @@ def _parser(prog):
                    'rosbag; may be given twice (both from the same messages); with --jobs: a '
                    'folder')
     p.add_argument('--junit', metavar='XML', help='write JUnit XML (with --jobs: a folder)')
+    p.add_argument('--report', metavar='DIR', help='write an HTML report of the run to '
+                   'DIR/index.html (opens offline; with --jobs: DIR/<scenario>/ and an index '
+                   'page DIR/index.html)')
     p.add_argument('--real-time-factor', type=float, dest='rtf', metavar='R',
                    help='0 = as fast as possible (override the scenario\'s)')
     p.add_argument('--attach', action='store_true',
@@ -81,7 +84,8 @@ def main(argv=None, prog='run_scenario'):
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
     res = run_file(files[0], seed=a.seed, record=_record_arg(a.record), junit=a.junit,
-                   real_time_factor=a.rtf, attach=a.attach, replay=a.replay)
+                   real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
+                   report=a.report)
     if a.text:          # rostest --text: the summary a rosunit test node prints
         errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])
         fails = [v.name for v in res.verdicts if not v.passed and not v.error]
@@ -122,6 +126,8 @@ def farm(files, jobs, a, out=print):
             if a.junit:
                 os.makedirs(a.junit, exist_ok=True)
                 cmd += ['--junit', os.path.join(a.junit, name + '.xml')]
+            if a.report:
+                cmd += ['--report', os.path.join(a.report, name)]
             if a.record:                    # a folder: <name>.bag
                 os.makedirs(a.record[0], exist_ok=True)
                 cmd += ['--record', os.path.join(a.record[0], name + '.bag')]
@@ -151,4 +157,18 @@ def farm(files, jobs, a, out=print):
                                                  wall, n_pass, n_all))
         worst = max(worst, rc if rc in (0, 1) else EXIT_ERROR)
     out('%d scenarios, %d jobs, %.1f s wall' % (len(results), jobs, time.monotonic() - wall0))
+    if a.report:
+        _farm_index(a.report, results, time.monotonic() - wall0, out)
     return worst
+
+
+def _farm_index(report, results, wall, out):
+    from .report import write_index
+    runs = [dict(name=os.path.splitext(os.path.basename(f))[0],
+                 status={EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}.get(rc, 'ERROR'), wall=w,
+                 report=os.path.join(report, os.path.splitext(os.path.basename(f))[0]))
+            for f, rc, w, _text in results]
+    try:
+        out('report: %s' % write_index(report, runs, wall))
+    except OSError as e:
+        out('report: cannot write the farm index to %s: %s' % (report, e.strerror or e))

@@ -155,7 +155,7 @@ class _Proc(object):
 
 class Runner(object):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
-                 attach=False, replay=None, out=None, run_dir=None, port=None):
+                 attach=False, replay=None, out=None, run_dir=None, port=None, report=None):
         self.sc = scenario
         self.seed = scenario.seed if seed is None else int(seed)
         self.rtf = scenario.real_time_factor if real_time_factor is None \
@@ -185,6 +185,7 @@ class Runner(object):
         self.cond_hits = {}
         self.t = 0.0
         self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
+        self.report_dir, self.collector = report, None      # --report DIR (report.py)
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -215,7 +216,8 @@ class Runner(object):
         args = ['paused:=true', 'seed:=%d' % self.seed,
                 'real_time_factor:=%g' % self.rtf, 'physics:=%s' % w.get('physics', 'ode')]
         if launch == 'office':
-            args.append('flycam:=false')
+            # the report shows the spectator view: the flycam at 1 frame per sim second
+            args += ['flycam:=true', 'flycam_rate:=1'] if self.report_dir else ['flycam:=false']
             ph = self.sc.phones[0]
             if 'position' in ph:
                 args += ['phone_x:=%r' % ph['position'][0], 'phone_y:=%r' % ph['position'][1],
@@ -421,6 +423,9 @@ class Runner(object):
             want.setdefault('/gazebo/environment', 'record')
             for t in self.sc.record:
                 want.setdefault(t, 'record')
+        if self.collector is not None:
+            for t in self.collector.image_topics:
+                want.setdefault(t, 'report')
         return want
 
     def _subscribe_all(self, wait_connections=True):
@@ -529,6 +534,8 @@ class Runner(object):
                 e.feed(t, msg)
             for ev in self.cond_by_topic.get(topic, ()):
                 self._cond_msg(ev, t, msg)
+            if self.collector is not None:
+                self.collector.feed(t, topic, msg)
             if topic == '/gazebo/environment':
                 self.env_values = {v.name: v.value for v in msg.values}
 
@@ -813,6 +820,9 @@ class Runner(object):
             if isinstance(w, dict) and 'topic' in w:
                 self.cond_by_topic.setdefault(w['topic'], []).append(ev)
         self.agenda, self.seq_agenda = [], 0
+        if self.report_dir:
+            from .report import Collector
+            self.collector = Collector(self, self.report_dir, 'replay' if self.replay else 'live')
         error, log = None, []
         watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
         watchdog.daemon = True
@@ -836,6 +846,8 @@ class Runner(object):
             verdicts = [e.verdict for e in self.expectations if e.verdict is not None]
         result = Result(self.sc.name, verdicts, error, log, self.t, time.monotonic() - wall0)
         self.report(result)
+        if self.collector is not None:
+            self.collector.write(result)
         return result
 
     def _on_timeout(self):
@@ -977,6 +989,8 @@ class Runner(object):
                 self.bag = None
         for p in reversed(self.procs):
             p.stop()
+        if self.collector is not None:
+            self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.run_dir, ignore_errors=True)
 

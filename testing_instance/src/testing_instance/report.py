@@ -26,6 +26,7 @@ import html
 import json
 import math
 import os
+import re
 import shlex
 import time
 
@@ -390,7 +391,8 @@ class Collector(object):
         for f in names:
             try:
                 with open(os.path.join(run_dir, f), errors='replace') as fh:
-                    self.logs[f] = [ln.rstrip('\n') for ln in fh.readlines()[-LOG_TAIL:]]
+                    self.logs[f] = [_ANSI.sub('', ln.rstrip('\n'))
+                                    for ln in fh.readlines()[-LOG_TAIL:]]
             except OSError:
                 pass
 
@@ -785,6 +787,9 @@ class Collector(object):
                                                               v['status'], v['name'], v['t']))
         o.append('</svg>')
         return ''.join(o)
+
+
+_ANSI = re.compile(r'\x1b\[[0-9;]*[A-Za-z]')
 
 
 def _short(text, n=80):

@@ -152,6 +152,41 @@ def test_replay_of_a_file_that_is_no_recording_is_one_error_line(tmp_path):
     assert 'Traceback' not in out
 
 
+@pytest.fixture(scope='module')
+def farm(tmp_path_factory):
+    """A farm of a run that errs (a topic typo) and one that passes, with --report."""
+    d = tmp_path_factory.mktemp('farm')
+    (d / 'typo.yaml').write_text(
+        'duration: 0.5\nworld: {args: {camera_rate: 1}}\nexpect:\n'
+        '  - {name: topic_typo, topic: /mobile_device/imu_sensor_dat, rate: {gt: 1}}\n'
+        '  - {name: upright_z, topic: /mobile_device/imu_sensor_data,\n'
+        '     field: linear_acceleration.z, always: {gt: 5}}\n')
+    (d / 'fine.yaml').write_text(
+        'duration: 0.5\nseed: 3\nworld: {args: {camera_rate: 1}}\nexpect:\n'
+        '  - {name: imu_rate, topic: /mobile_device/imu_sensor_data, rate: {near: 100, '
+        'tol: 1}}\n')
+    rc, out = run('--jobs', '2', d / 'typo.yaml', d / 'fine.yaml', '--report', d / 'out')
+    return dict(rc=rc, out=out, dir=d / 'out')
+
+
+def test_farm_report_index_and_error_log_tails(farm):
+    assert farm['rc'] == 2, farm['out']
+    assert 'report: %s' % (farm['dir'] / 'index.html') in farm['out']
+    page = (farm['dir'] / 'index.html').read_text()
+    assert '2 runs: 1 PASS, 0 FAIL, 1 ERROR' in page
+    assert '<a href="fine/index.html">fine</a>' in page and '<td>3</td>' in page
+    err = (farm['dir'] / 'typo' / 'index.html').read_text()
+    assert 'id="logs"' in err and '<h3>world.log</h3>' in err
+    assert 'sim_world' in err[err.index('id="logs"'):]
+    assert '\x1b[' not in err
+    d = json.load(open(str(farm['dir'] / 'typo' / 'report.json')))
+    assert {v['name']: v['status'] for v in d['verdicts']} == {'topic_typo': 'ERROR',
+                                                              'upright_z': 'PASS'}
+    assert d['plots']['upright_z']['band'] == ['above', 5.0, None]
+    assert 'topic_typo' not in d['plots']
+    assert d['verdicts'][0]['note'] == 'no plot: fewer than two messages'
+
+
 # -- in a real browser -------------------------------------------------------------------------
 @pytest.fixture(scope='module')
 def browser():
@@ -266,6 +301,18 @@ def test_qr_reports_in_chromium_and_the_readme_screenshot(browser, qr_reports):
     page, data = check_report(browser, ok['dir'])
     assert data['status'] == 'PASS'
     page.close()
+
+
+def test_farm_reports_in_chromium(browser, farm):
+    page, requests = open_report(browser, farm['dir'])
+    assert page.locator('tr.run').count() == 2
+    page.close()
+    page, _data = check_report(browser, farm['dir'] / 'typo')
+    assert page.locator('#logs pre.log').count() >= 1
+    assert page.locator('#logs').inner_text().count('sim_world') >= 1
+    page.close()
+    base = 'file://%s/' % farm['dir']
+    assert all(u.startswith(base) for u in requests), requests
 
 
 def test_farm_index_in_chromium(browser, tmp_path, qr_reports, compass):

@@ -463,6 +463,10 @@ class Collector(object):
             return 'no plot: no field'
         if e.mode not in ('count', 'rate') and not self.series.get(e.name):
             return 'no plot: no message'
+        if e.mode == 'count' and not self.msg_times.get(e.name):
+            return 'no plot: no message'
+        if e.mode == 'rate' and len(self.msg_times.get(e.name, ())) < 2:
+            return 'no plot: fewer than two messages'
         return ''
 
     def _plot_data(self, e, v):
@@ -505,6 +509,8 @@ class Collector(object):
                     dv = at[-1]
         series = [(label, [(round(t, 6), round(val, 6)) for t, val in decimate(pts)])
                   for label, pts in series]
+        if not any(pts for _l, pts in series):
+            return None                   # nothing to draw: the row says why
         band = band_of(spec) if len(series) == 1 else None
         return dict(series=series, window=[round(x, 6) for x in w] if w else None,
                     band=list(band) if band else None, ylabel=ylabel,

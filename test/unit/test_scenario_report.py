@@ -14,7 +14,7 @@ pytest.importorskip('rospy')
 
 from testing_instance.expect import Expectation  # noqa: E402
 from testing_instance.report import (Collector, band_of, decimate, nice_ticks,  # noqa: E402
-                                     numeric_value, svg_plot, write_index)
+                                     numeric_value, svg_plot, write_index, write_invalid)
 from testing_instance.runner import Result  # noqa: E402
 from testing_instance.scenario import load  # noqa: E402
 
@@ -157,3 +157,20 @@ def test_helpers():
     svg = svg_plot([('x', [(0, 1), (1, 2)])], (0, 1), (0.2, 0.8), ('above', 1.5, None),
                    (0.5, 1.5), 'FAIL')
     assert svg.count('class="band"') == 1 and 'FAIL t=0.500 s: 1.5' in svg
+
+
+def test_invalid_scenario_file_report_and_its_index_row(tmp_path):
+    lines = []
+    path = write_invalid(str(tmp_path / 'farm' / 'typo'), str(tmp_path / 'typo.yaml'),
+                         ["typo.yaml:3: timeline[0].action: unknown action 'mvoe_model'"],
+                         lines.append)
+    page = open(path).read()
+    assert "unknown action &#x27;mvoe_model&#x27;" in page and 'status-ERROR' in page
+    assert lines == ['report: %s' % path]
+    index = open(write_index(str(tmp_path / 'farm'), [dict(
+        name='typo', status='ERROR', wall=0.1, report=str(tmp_path / 'farm' / 'typo'))])).read()
+    assert '<a href="typo/index.html">typo</a>' in index
+    (tmp_path / 'blocker').write_text('a file, not a folder')
+    assert write_invalid(str(tmp_path / 'blocker' / 'x'), 'typo.yaml', ['p'],
+                         lines.append) is None
+    assert lines[-1].startswith('report: cannot write the report to ')

@@ -1,8 +1,9 @@
 """Scenario reports a person opens in a browser (run_scenario ... --report DIR).
 
-``Collector`` rides along a run (live or --replay): the runner hands it every message it
-feeds the expectations (``feed``), every timeline event that fires (``mark``) and its log
-folder before it is removed (``grab_logs``). ``Collector.write(result)`` then writes
+``Collector`` rides along a run (live or --replay): the runner subscribes the topics it
+wants (``image_topics``: cameras, display, flycam), hands it every message it feeds the
+expectations (``feed``) and its log folder before it is removed (``grab_logs``); the events
+come from the runner's ``event_times`` (live: as they fired; replay: as recorded). ``Collector.write(result)`` then writes
 
     DIR/index.html     the report: header (scenario, seed, world, real-time factor, wall and
                        sim time, exit status, the command that reruns it), the verdict table
@@ -32,7 +33,7 @@ import time
 
 from .expect import FieldError, get_field, to_value
 
-__all__ = ['Collector', 'write_index', 'svg_plot', 'numeric_value', 'nice_ticks',
+__all__ = ['Collector', 'write_index', 'write_invalid', 'svg_plot', 'numeric_value', 'nice_ticks',
            'report_image_topics']
 
 PLOT_W, PLOT_H = 720, 230
@@ -41,7 +42,7 @@ MAX_POINTS = 1500                        # per series: min/max decimation above 
 FRAME_SPACING = 0.05                     # s of sim time between kept frames of a topic
 MAX_FRAMES = 240                         # per topic; above it every other frame is dropped
 FRAME_MAX_W = 360                        # px: frames are kept at most this wide
-MAX_MARKS = 40                           # times at which frames are shown
+MAX_MARKS = 40                           # moments (events, verdicts) with frames shown
 LOG_TAIL = 40
 SHOW_W = 260                             # px: the longer side of a frame on the page
 STATUS_COLOURS = {'PASS': '#1a7f37', 'FAIL': '#cf222e', 'ERROR': '#9a6700'}
@@ -321,13 +322,9 @@ class Collector(object):
         self.last_in_window = {}
         self.frames = {}
         self.image_topics = report_image_topics(runner)
-        self.marks = []                                     # (t, label, kind)
         self.logs = {}
 
     # -- hooks the runner calls --------------------------------------------------------------
-    def wanted_topics(self):
-        return dict((t, 'report') for t in self.image_topics)
-
     def feed(self, t, topic, msg):
         c0 = time.monotonic()
         try:
@@ -376,11 +373,6 @@ class Collector(object):
         vals = self.values[e.name]
         if (not vals or vals[-1][1] != text) and len(vals) < 50:
             vals.append((t, text))
-
-    def mark(self, t, label, kind='event'):
-        """Frames are shown at sim time t (an event fired, a verdict was decided)."""
-        if len(self.marks) < MAX_MARKS:
-            self.marks.append((t, label, kind))
 
     def grab_logs(self, run_dir):
         """Tails of the world's and the apps' logs (the run folder is about to go)."""
@@ -838,6 +830,35 @@ figure.frame { margin: 0; } figure.frame figcaption { font-size: 0.8em; color: #
 .imgbox svg.overlay { position: absolute; left: 0; top: 0; width: 100%%; height: 100%%; }
 </style></head><body>
 """
+
+
+def write_invalid(out_dir, path, problems, out=print):
+    """The report of a scenario file that did not validate: its problems, file:line each
+    (nothing ran). Never raises: a folder that cannot be written is one line."""
+    name = os.path.splitext(os.path.basename(path))[0]
+    cmd = ' '.join(shlex.quote(c) for c in ['rosrun', 'mobile_device_sim', 'run_scenario',
+                                            os.path.abspath(path), '--report',
+                                            os.path.abspath(out_dir)])
+    d = dict(scenario=name, path=os.path.abspath(path), status='ERROR', exit_code=2,
+             error='invalid scenario file', problems=list(problems), verdicts=[], plots={},
+             events=[], frames=[], command=cmd)
+    page = [_HEAD % dict(title=_esc('%s: ERROR' % name)),
+            '<header id="summary"><h1>%s <span class="badge status-ERROR">ERROR</span></h1>'
+            '<p class="run-error">the scenario file %s is invalid: nothing ran</p><ul '
+            'class="problems">%s</ul><p>Rerun it:</p><pre class="command">%s</pre></header>'
+            '</body></html>\n' % (_esc(name), _esc(d['path']), ''.join(
+                '<li>%s</li>' % _esc(p) for p in problems), _esc(cmd))]
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        with open(os.path.join(out_dir, 'report.json'), 'w') as f:
+            json.dump(d, f, indent=1, sort_keys=True)
+        with open(os.path.join(out_dir, 'index.html'), 'w') as f:
+            f.write(''.join(page))
+    except OSError as e:
+        out('report: cannot write the report to %s: %s' % (out_dir, e.strerror or e))
+        return None
+    out('report: %s' % os.path.join(out_dir, 'index.html'))
+    return os.path.join(out_dir, 'index.html')
 
 
 def write_index(out_dir, runs, wall=None):

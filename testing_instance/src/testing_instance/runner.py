@@ -1053,5 +1053,8 @@ def run_file(path, **kw):
                      'invalid scenario file: %s' % '; '.join(e.problems))
         if kw.get('junit'):
             write_junit(res, kw['junit'])
+        if kw.get('report'):
+            from .report import write_invalid
+            write_invalid(kw['report'], path, e.problems, out)
         return res
     return Runner(sc, **kw).run()

@@ -174,3 +174,28 @@ def test_invalid_scenario_file_report_and_its_index_row(tmp_path):
     assert write_invalid(str(tmp_path / 'blocker' / 'x'), 'typo.yaml', ['p'],
                          lines.append) is None
     assert lines[-1].startswith('report: cannot write the report to ')
+
+
+def test_a_message_the_report_cannot_read_is_one_line(tmp_path):
+    f = tmp_path / 's.yaml'
+    f.write_text('duration: 1\nexpect:\n  - {name: v, topic: /v, field: data, '
+                 'always: {gt: 0}}\n')
+    sc = load(str(f))
+    exps = [Expectation(e, sc.duration) for e in sc.expect]
+    lines = []
+    r = types.SimpleNamespace(sc=sc, expectations=exps, event_times={}, seed=0, rtf=0.0,
+                              replay=None, t0=0.0, loop_wall=None, say=lines.append)
+    c = Collector(r, str(tmp_path / 'rep'))
+
+    class Weird(object):
+        __slots__ = ('data',)
+
+        def __getattribute__(self, name):
+            raise RuntimeError('unreadable')
+    c.feed(0.1, '/v', Weird())                 # no exception reaches the runner
+    c.feed(0.2, '/v', Msg(3.0))
+    exps[0].feed(0.2, Msg(3.0))
+    assert c.write(Result('s', [exps[0].finish(1.0)])) is not None
+    assert 'report: messages of /v could not be collected (RuntimeError: unreadable)' in lines
+    assert json.load(open(str(tmp_path / 'rep' / 'report.json')))['plots']['v']['series'][0][1] \
+        == [[0.2, 3.0]]

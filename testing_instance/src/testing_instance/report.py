@@ -323,12 +323,17 @@ class Collector(object):
         self.frames = {}
         self.image_topics = report_image_topics(runner)
         self.logs = {}
+        self.problems = {}                                  # topic -> what went wrong
 
     # -- hooks the runner calls --------------------------------------------------------------
     def feed(self, t, topic, msg):
+        """One message as the expectations saw it; never raises (the run goes on: what
+        could not be collected is named in one line when the report is written)."""
         c0 = time.monotonic()
         try:
             self._feed(t, topic, msg)
+        except Exception as e:  # noqa: BLE001 - a report never changes a run
+            self.problems.setdefault(topic, '%s: %s' % (type(e).__name__, e))
         finally:
             self.cost += time.monotonic() - c0
 
@@ -398,8 +403,14 @@ class Collector(object):
         except OSError as e:
             out('report: cannot write the report to %s: %s' % (self.dir, e.strerror or e))
             return None
+        except Exception as e:  # noqa: BLE001 - a report never changes a run's outcome
+            out('report: could not make the report in %s: %s: %s' % (self.dir,
+                                                                     type(e).__name__, e))
+            return None
         finally:
             self.cost += time.monotonic() - c0
+        for topic, what in sorted(self.problems.items()):
+            out('report: messages of %s could not be collected (%s)' % (topic, what))
         out('report: %s (%.2f s to make)' % (path, self.cost))
         return path
 

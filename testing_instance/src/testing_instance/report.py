@@ -221,9 +221,10 @@ def svg_plot(series, t_range, window=None, band=None, decider=None, status='PASS
         path = ' '.join('%.1f,%.1f' % (X(t), Y(v)) for t, v in pts)
         o.append('<polyline class="series" fill="none" stroke="%s" stroke-width="1.6" '
                  'points="%s"><title>%s</title></polyline>' % (c, path, _esc(label)))
-        if len(pts) <= 120:
-            o.append(''.join('<circle class="pt" cx="%.1f" cy="%.1f" r="2" fill="%s"/>'
-                             % (X(t), Y(v), c) for t, v in pts))
+        if len(pts) <= 120:            # hover: a point's time and value
+            o.append(''.join('<circle class="pt" cx="%.1f" cy="%.1f" r="2.5" fill="%s">'
+                             '<title>t=%.3f s: %s</title></circle>'
+                             % (X(t), Y(v), c, t, _fmt_num(v)) for t, v in pts))
     if decider is not None and decider[0] is not None:
         td, vd = decider
         c = STATUS_COLOURS.get(status, '#24292f')

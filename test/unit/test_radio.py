@@ -168,6 +168,12 @@ def test_wifi_free_space_and_walls(world):
     world.set_state('mobile_device', Pose((10, 0, 1.5)))
     world.delete_model('ap')
     world.add_model(ap('ap', (0, 0, 1.5), '00:00:00:00:00:01'))
+    # the default, multi-wall: one wall of no known material, head-on
+    w.measure(w.state(), 0)
+    (_, p1, terms), = w.heard
+    assert terms['l_ob'] == pytest.approx(rb.DEFAULT_WALL_LOSS, abs=1e-6)
+    # the thesis's model by parameter: 0.2 m x 110 dB/m
+    w.p.wallModel = 'per_metre'
     w.measure(w.state(), 0)
     (_, p1, terms), = w.heard
     assert terms['l_ob'] == pytest.approx(22.0, abs=1e-6)
@@ -178,6 +184,11 @@ def test_wifi_free_space_and_walls(world):
     (_, p2, terms), = w.heard
     assert terms['l_ob'] == pytest.approx(22.0 + 9.0, abs=1e-6)
     assert p1 - p2 == pytest.approx(9.0, abs=1e-6)
+    w.p.wallModel = 'multiwall'          # glass from the built-in table, 0.3 m thick slab
+    w.measure(w.state(), 0)
+    (_, p3, terms), = w.heard
+    assert terms['l_ob'] == pytest.approx(rb.DEFAULT_WALL_LOSS + rb.WALL_LOSS['glass'],
+                                          abs=1e-6)
 
 
 def test_wifi_sensitivity_link_and_enable(world):

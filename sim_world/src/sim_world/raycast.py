@@ -63,6 +63,22 @@ class _Kind(object):
         self.params = np.zeros((0, 3))
 
 
+def _thickness(kind, par, shape):
+    """Smallest extent (m) of a collision shape: a box's thinnest side, a sphere's
+    diameter, a cylinder's smaller of diameter and length, a mesh's thinnest bounding-box
+    side; None for a plane (a half-space)."""
+    if kind == 'box':
+        return float(2.0 * np.min(par))
+    if kind == 'sphere':
+        return float(2.0 * par[0])
+    if kind == 'cylinder':
+        return float(2.0 * min(par[0], par[1]))
+    if kind == 'mesh':
+        verts = np.asarray(shape.mesh[0], float)
+        return float(np.min(verts.max(axis=0) - verts.min(axis=0))) if len(verts) else None
+    return None
+
+
 class RayCaster(object):
     """Per-world cache of the collision shapes' world transforms (see module doc)."""
 
@@ -85,6 +101,7 @@ class RayCaster(object):
         phys = self.world.physics
         recs = phys._models
         self.owners = []          # (model, link, material)
+        self.owner_thickness = []  # m, the shape's smallest extent (None: a half-space)
         self.shape_local = []     # (kind, index, local Pose, model name)
         lists = dict(box=[], sphere=[], cylinder=[], plane=[], mesh=[])
         self.model_shapes = {}
@@ -110,6 +127,7 @@ class RayCaster(object):
                 else:
                     par = None
                 lists[k].append((oi, s, par))
+                self.owner_thickness.append(_thickness(k, par, s))
                 self.model_shapes.setdefault(name, []).append((k, len(lists[k]) - 1))
         self.kinds = {}
         for k in ('box', 'sphere', 'cylinder', 'plane'):
@@ -372,7 +390,7 @@ class RayCaster(object):
         model, link, mat = self.owners[bi]
         return Hit(best, model, link, o + best * d, bn, mat)
 
-    def segment_intervals(self, a, b, ignore=()):
+    def segment_intervals(self, a, b, ignore=(), incidence=False):
         a = np.asarray(a, float).reshape(3)
         b = np.asarray(b, float).reshape(3)
         if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
@@ -391,17 +409,24 @@ class RayCaster(object):
             hi = np.minimum(tout, L)
             for i in np.nonzero(hi > lo)[0]:
                 model, link, mat = self.owners[owners[i]]
-                out.append((float(lo[i]), float(hi[i]), model, link, mat))
+                iv = (float(lo[i]), float(hi[i]), model, link, mat)
+                if incidence:
+                    iv += (self.owner_thickness[owners[i]],)
+                out.append(iv)
         if len(mt):
             for s in np.unique(mshape):
                 ts = np.sort(mt[mshape == s])
                 if len(ts) > 1:     # crossings through a shared edge count once
                     ts = ts[np.concatenate([[True], np.diff(ts) > 1e-9])]
-                model, link, mat = self.owners[self.meshes[s]['owner']]
+                oi = self.meshes[s]['owner']
+                model, link, mat = self.owners[oi]
                 for j in range(0, len(ts) - 1, 2):
                     lo, hi = max(ts[j], 0.0), min(ts[j + 1], L)
                     if hi > lo:
-                        out.append((float(lo), float(hi), model, link, mat))
+                        iv = (float(lo), float(hi), model, link, mat)
+                        if incidence:
+                            iv += (self.owner_thickness[oi],)
+                        out.append(iv)
         out.sort(key=lambda x: x[0])
         return out
 
@@ -421,7 +446,10 @@ def raycast(world, origin, direction, max_dist, ignore=()):
         return caster(world).raycast(origin, direction, max_dist, ignore)
 
 
-def segment_intervals(world, a, b, ignore=()):
-    """[(enter, exit, model, link, material)] inside solid shapes along a->b (m from a)."""
+def segment_intervals(world, a, b, ignore=(), incidence=False):
+    """[(enter, exit, model, link, material)] inside solid shapes along a->b (m from a);
+    with ``incidence`` each entry also holds the shape's thickness (its smallest extent, m;
+    None for a half-space): (exit - enter) / thickness is 1 for a head-on crossing of a
+    slab, 1/cos(angle) at a slant, and below 1 where a corner is clipped."""
     with world.lock:
-        return caster(world).segment_intervals(a, b, ignore)
+        return caster(world).segment_intervals(a, b, ignore, incidence)

@@ -226,10 +226,11 @@ class World(object):
         from .raycast import raycast
         return raycast(self, origin, direction, max_dist, ignore)
 
-    def segment_intervals(self, a, b, ignore=()):
-        """Parts of the segment a->b inside solid shapes (sim_world.raycast)."""
+    def segment_intervals(self, a, b, ignore=(), incidence=False):
+        """Parts of the segment a->b inside solid shapes (sim_world.raycast); with
+        ``incidence`` each part also holds the shape's thickness (m)."""
         from .raycast import segment_intervals
-        return segment_intervals(self, a, b, ignore)
+        return segment_intervals(self, a, b, ignore, incidence)
 
     def link_poses(self, model_name):
         if model_name in self._static_poses:

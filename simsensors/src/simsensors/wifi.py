@@ -127,11 +127,26 @@ class RadioReceiver(Sensor):
               doc='G_RX'),
         Param('rxLoss', float, 0.0, aliases=('L_RX', 'l_rx', 'rx_loss'), unit='dB',
               doc='L_RX (magnitude)'),
+        Param('wallModel', rb.WALL_MODELS, 'multiwall', aliases=('wall_model',),
+              doc="obstacle loss L_OB: 'multiwall' (COST 231: a loss per wall crossed) or "
+                  "'per_metre' (the thesis: dB per metre inside solids)"),
+        Param('wallLoss', float, rb.DEFAULT_WALL_LOSS, aliases=('wall_loss',), unit='dB',
+              check='>=0', doc='multiwall: loss of a wall of no known material (COST 231 '
+                               'light wall)'),
+        Param('materialWallLoss', rb.parse_wall_losses, {}, aliases=('wallMaterials',),
+              unit='dB', doc='multiwall: per collision <material>, e.g. "drywall:3 glass:2" '
+                             '(over the built-in table)'),
+        Param('maxIncidence', float, rb.DEFAULT_MAX_INCIDENCE, aliases=('max_incidence',),
+              check=(1.0, 100.0), doc='multiwall: bound of the slant-path factor (length inside '
+                                    '/ wall thickness = 1/cos(incidence))'),
+        Param('wallThickness', float, rb.DEFAULT_WALL_THICKNESS, unit='m', check='>0',
+              doc='multiwall: thickness of a solid whose shape gives none'),
         Param('attenuation', float, rb.DEFAULT_ATTENUATION,
               aliases=('obstacleAttenuation',), unit='dB/m', check='>=0',
-              doc='obstacle loss per metre inside a solid (thesis: 110 dB/m)'),
+              doc='per_metre: loss per metre inside a solid (thesis: 110 dB/m)'),
         Param('materialAttenuation', rb.parse_materials, {}, aliases=('materials',),
-              unit='dB/m', doc='per material, e.g. "glass:30 wood:40" (collision <material>)'),
+              unit='dB/m', doc='per_metre: per material, e.g. "glass:30 wood:40" '
+                               '(collision <material>)'),
         Param('fading', rb.FADING, 'lognormal', doc='miscellaneous loss L_M'),
         Param('fadingSigma', float, 2.0, aliases=('sigma',), unit='dB', check='>=0',
               doc='standard deviation of the log-normal shadowing'),
@@ -163,6 +178,14 @@ class RadioReceiver(Sensor):
             bus.set_flag(self.model.name, self.FLAG, self.enabled)
         self.power(self.FLAG, self.p.power if self.enabled else 0.0)
 
+    def wall_args(self):
+        """The obstacle-loss model's keyword arguments for ``radio_budget.budget_to``."""
+        p = self.p
+        return dict(wall_model=p.wallModel, per_wall=p.wallLoss,
+                    wall_materials=p.materialWallLoss, max_incidence=p.maxIncidence,
+                    thickness=p.wallThickness, attenuation=p.attenuation,
+                    materials=p.materialAttenuation)
+
     def budget(self, pos, draw=True):
         """[(transmitter, P_RX, terms)] for every transmitter of KIND (one L_M draw each,
         in a stable order, whether heard or not)."""
@@ -174,8 +197,7 @@ class RadioReceiver(Sensor):
             try:
                 prx, terms = rb.budget_to(tx, pos, p.rxGain, p.rxLoss, seg,
                                           ignore=(self.model.name,),
-                                          attenuation=p.attenuation,
-                                          materials=p.materialAttenuation, l_m=l_m)
+                                          l_m=l_m, **self.wall_args())
             except Exception as e:  # noqa: BLE001 - one broken transmitter, the rest work
                 self.log_error('%s: transmitter %s of model %s: %s' % (
                     self.label, tx.id, tx.model, e))

@@ -100,6 +100,7 @@ class World(object):
         self.sim_time = 0.0
         self._initial = {}                # model name -> Pose at spawn (reset_world)
         self._renderer = None
+        self._shared = {}                 # see shared()
         self._next_plugin_time = math.inf
         self._static_poses = {}           # model name -> {link: Pose} for static models
         self.on_model_added = []          # callbacks(model) (ROS API: tf_static)
@@ -220,6 +221,50 @@ class World(object):
         for name in self.models:
             self._renderer.set_link_poses(name, self.link_poses(name))
 
+    @property
+    def renderer_if_created(self):
+        """The renderer if a camera made one, else None (plugins that only change what
+        cameras see have nothing to do without one)."""
+        return self._renderer
+
+    # -- what plugins share ----------------------------------------------------------------------
+    def shared(self, name, factory):
+        """The world's one object named ``name`` (an NFC proxy, an audio scene), made by
+        ``factory(world)`` on first use: per-world state of a plugin family."""
+        obj = self._shared.get(name)
+        if obj is None:
+            obj = self._shared[name] = factory(self)
+        return obj
+
+    def transmitters(self, kind=None):
+        """The radio transmitters in the world (of one ``kind``: wifi, cell, bluetooth), in
+        a stable order (by id)."""
+        txs = [t for t in self.environment.transmitters if kind is None or t.kind == kind]
+        return sorted(txs, key=lambda t: (t.id, t.model))
+
+    def add_transmitter(self, tx):
+        self.environment.transmitters.append(tx)
+
+    def remove_transmitter(self, tx):
+        if tx in self.environment.transmitters:
+            self.environment.transmitters.remove(tx)
+
+    def contacts(self, model_name, link_name=None):
+        """The physics engine's contact points of a model (or one link of it) now."""
+        return self.physics.contacts(model_name, link_name)
+
+    def apply_wrench(self, model_name, force, torque=None, steps=1, key=None):
+        """A force (N) and torque (N m) in the world frame on a model for ``steps`` physics
+        steps (None: until cleared; rows of forces: one per step) under ``key``."""
+        return self.physics.apply_wrench(model_name, force, torque, steps=steps, key=key)
+
+    def clear_wrench(self, model_name, key):
+        """End the wrench ``key`` on a model (nothing if the model is gone)."""
+        try:
+            self.physics.clear_wrench(model_name, key)
+        except KeyError:
+            pass
+
     # -- state -------------------------------------------------------------------------------
     def raycast(self, origin, direction, max_dist, ignore=()):
         """First collision surface along a ray, or None (sim_world.raycast)."""
@@ -254,6 +299,17 @@ class World(object):
             return self.models[name].pose, np.zeros(3), np.zeros(3)
         pose, lin, ang = self.physics.model_state(name)
         return pose, np.asarray(lin, float), np.asarray(ang, float)
+
+    def pass_state(self, entity):
+        """``entity_state``, read once per plugin pass: the sensors on the same link share it
+        (a teleport during the pass clears it, nothing outlives the pass)."""
+        cache = self.pass_states
+        if cache is None:
+            return self.entity_state(entity)
+        got = cache.get(entity)
+        if got is None:
+            got = cache[entity] = self.entity_state(entity)
+        return got
 
     def entity_state(self, entity):
         """State of a model, of 'model::link', or of a link name unique in the world."""

@@ -60,8 +60,7 @@ class Magnetometer(Sensor):
     def setup(self):
         from sensor_msgs.msg import MagneticField
         self.MagneticField = MagneticField
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, MagneticField)
+        self.output('main', MagneticField)
         p = self.p
         self.own = any(v is not None for v in (p.magnitude, p.declination, p.inclination,
                                                 p.referenceHeading))

@@ -58,7 +58,7 @@ class ThermalDisplay(Sensor):
     DEFAULT_TOPIC = 'thermal_display/temperature'
     DEFAULT_RATE = 10.0
     ALWAYS_MEASURE = True
-    MSG = None
+    USES_POSE = False             # sim time only
     PARAMS = [
         Param('timeConstant', float, 3.0, aliases=('time_constant', 'tau'), unit='s',
               check='>=0', doc='first-order lag of the back temperature'),
@@ -90,8 +90,8 @@ class ThermalDisplay(Sensor):
         self._lock = threading.Lock()
         self._pending = None
         self.temperature = self.target = p.neutralTemperature
-        self._last_t = getattr(self.world, 'sim_time', 0.0)
-        self.pub = self.advertise(p.stateTopicName, Temperature)
+        self._last_t = self.world.sim_time
+        self.output('main', Temperature, topic=p.stateTopicName)
         self.subscribe(self.topic, Float64, lambda m: self.command(m.data))
 
     def command(self, degc):
@@ -127,17 +127,10 @@ class ThermalDisplay(Sensor):
                                        self.p.timeConstant)
         if pending is not None:
             self.target = pending
-        self._paint(getattr(self.world, '_renderer', None))
+        self._paint()
         self.power('thermal_display', self.p.powerPerKelvin
                    * abs(self.temperature - self.p.neutralTemperature))
         return self.temperature
-
-    def state(self, t=None):          # no link state needed: sim time only
-        class S(object):
-            pass
-        s = S()
-        s.t = self.world.sim_time if t is None else t
-        return s
 
     def to_msg(self, value, stamp):
         m = self.Temperature()
@@ -147,18 +140,16 @@ class ThermalDisplay(Sensor):
         m.variance = 0.0
         return m
 
-    def _paint(self, renderer):
-        if renderer is None:
-            return
+    def _paint(self):
         try:
-            renderer.set_link_color(self.model.name, self.body, self.color(), lit=False)
+            self.paint('set_link_color', self.model.name, self.body, self.color(), lit=False)
         except KeyError:
             pass                       # a link without a visual: state and power only
 
     def renderer_created(self, renderer):
-        self._paint(renderer)
+        self._paint()
 
     def reset(self):
         Sensor.reset(self)
         self.temperature = self.target = self.p.neutralTemperature
-        self._last_t = getattr(self.world, 'sim_time', 0.0)
+        self._last_t = self.world.sim_time

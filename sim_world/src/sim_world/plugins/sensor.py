@@ -56,7 +56,7 @@ from .error_models import error_model_from, error_params
 from .params import ParamError
 
 __all__ = ['Sensor', 'SensorState', 'Output', 'Publisher', 'BASE_PARAMS', 'DEVICE_FRAME',
-           'FAULTS', 'stable_seed', 'content']
+           'FAULTS', 'stable_seed', 'content', 'inject_fault']
 
 log = logging.getLogger('sim_world.sensor')
 
@@ -211,6 +211,27 @@ class Sensor(Device):
         Device.reset(self)
         for e in self.errors.values():
             e.reset()
+
+
+def inject_fault(plugins, fault, value=0.0):
+    """Set ``fault`` on every plugin of ``plugins`` (those a /gazebo/set_sensor_fault call
+    names); ValueError saying why not when one of them cannot take it (not a sensor: an
+    output device, a camera, a video texture; or the sensor refuses it). Nothing is set
+    unless every plugin takes it."""
+    for p in plugins:
+        if not isinstance(p, Sensor):
+            raise ValueError('%s (%s) is not a sensor of the sensor layer: faults apply to '
+                             'sensors' % (p.label, type(p).__name__))
+    done = []
+    try:
+        for p in plugins:
+            old = (p.fault, p.fault_value)
+            p.set_fault(fault, value)
+            done.append((p, old))
+    except ValueError:
+        for p, old in done:
+            p.set_fault(*old)
+        raise
 
 
 def _restamped(held, new):

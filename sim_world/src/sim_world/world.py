@@ -153,7 +153,7 @@ class World(object):
                 if p is not None:
                     p.timer.reset(self.sim_time)
                     self.plugins[model.name].append(p)
-            self._reschedule()
+            self.reschedule()
             for cb in self.on_model_added:
                 cb(model)
             return model
@@ -175,7 +175,7 @@ class World(object):
             self._initial.pop(name, None)
             self._static_poses.pop(name, None)
             self.power.forget(name)
-            self._reschedule()
+            self.reschedule()
             for cb in self.on_model_deleted:
                 cb(name)
 
@@ -455,9 +455,10 @@ class World(object):
                                            key[1], key[0], t, type(e).__name__, e)
             finally:
                 self.pass_states = None
-        self._reschedule()
+        self.reschedule()
 
-    def _reschedule(self):
+    def reschedule(self):
+        """Recompute when the next plugin falls due (after a plugin changed its rate)."""
         nxt = math.inf
         now = self.sim_time
         for ps in self.plugins.values():
@@ -481,7 +482,7 @@ class World(object):
                 for p in ps:
                     p.reset()
                     p.timer.reset(self.sim_time)
-            self._reschedule()
+            self.reschedule()
 
     def shutdown(self):
         self.flush()

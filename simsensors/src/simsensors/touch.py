@@ -4,7 +4,7 @@
 Touches come from contacts, as the thesis proposes: every world body whose collision shape
 touches the display link (``bodyName``, default ``mobile_display``) on its front face
 (``face``: front = +z of the link, back = -z) is one pointer of a multi-touch screen. The
-physics engine's contact points (``world.physics.contacts(model, link)``: position, normal,
+physics engine's contact points (``world.contacts(model, link)``: position, normal,
 penetration depth, like ODE's ``dContactGeom``) of one touching body are merged into one
 pointer: its position is the depth-weighted mean of the points, projected onto the display
 and given in display pixels of the display's resolution (the video texture on the same link,
@@ -187,9 +187,8 @@ class TouchScreen(Sensor):
         if self._size is None:
             w, h = self.p.displayWidth, self.p.displayHeight
             tex = None
-            for pl in self.world.plugins.get(self.model.name, []):
-                if getattr(pl, 'body', None) == self.body and hasattr(pl, 'texture'):
-                    tex = (pl.texture.width, pl.texture.height)
+            for pl in self.world.find_plugins(self.model.name):
+                tex = pl.texture_size(self.body) or tex
             if tex is None:
                 fw, fh = 2 * self.half[1], 2 * self.half[0]     # +z face: width along y
                 tex = (int(round(LONG_SIDE * fw / fh)), LONG_SIDE) if fh >= fw else \

@@ -25,7 +25,6 @@ nothing is seen; ``depthImageTopicName``) and ``depth/camera_info``
 range of the points. The camera looks along the link's +x (z up in the image); points are in the
 optical frame (x right, y down, z forward) of ``frameName``.
 """
-import logging
 import math
 import threading
 
@@ -36,9 +35,6 @@ from .camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
 from sim_world.plugins.params import Param, ParamError, convert
 
 __all__ = ['CameraPlugin']
-
-log = logging.getLogger('simvid.camera')
-
 
 def _find(elem, *path):
     """Text of the element at ``path`` (local tag names) below ``elem``, or None."""
@@ -188,7 +184,7 @@ class CameraPlugin(Plugin):
         base = self.image_topic.rsplit('/', 1)[0]
         self.hfov_topic = base + '/set_hfov'
         self.rate_topic = base + '/set_update_rate'
-        if getattr(self.world, 'ros_enabled', False):
+        if self.world.ros_enabled:
             self._make_ros()
 
     def _is_depth_camera(self):
@@ -219,7 +215,7 @@ class CameraPlugin(Plugin):
                       self.image_topic, self.info_topic, self.points_topic)
 
     def _error(self, text):
-        (getattr(self.world, 'log', None) or log).error('%s', text)
+        self.world.log.error('%s', text)
 
     # -- run-time changes (rospy threads; applied in the world thread) ------------------------
     def _on_hfov(self, msg):
@@ -288,7 +284,7 @@ class CameraPlugin(Plugin):
         pose = self.world.link_pose(self.model.name, self.link)
         stamp = self.world.ros_now() if self._pubs else None
         renderer = self.world.renderer
-        if getattr(self.world, 'parallel_render', False) and hasattr(renderer, 'submit'):
+        if self.world.parallel_render:
             # rendered and published by the renderer's worker thread while the world steps
             # on; the frame shows the scene of this tick, stamped with this tick's time
             self.camera.submit(renderer, pose,
@@ -324,8 +320,7 @@ class CameraPlugin(Plugin):
                 pubs['depth_info'].publish(info)
 
     def shutdown(self):
-        if getattr(self.world, 'flush', None) is not None:
-            self.world.flush()
+        self.world.flush()
         for s in self._subs:
             s.unregister()
         for p in self._pubs.values():

@@ -201,9 +201,6 @@ class Sensor(Device):
         for o in self.pubs:
             o.held = o.last if fault == 'freeze' else None
 
-    def extra_faults(self):
-        return tuple(self.FAULTS_OWN)
-
     def on_fault(self, fault, value):
         """A sensor's own fault set (or 'none': cleared); read ``self.fault`` in measure."""
 

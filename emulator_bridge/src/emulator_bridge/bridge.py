@@ -29,6 +29,8 @@ import time
 
 import numpy as np
 
+from sim_world.logonce import LogOnce
+
 DEFAULT_TOKEN_FILE = '~/.emulator_console_auth_token'
 G = 9.80665
 
@@ -368,7 +370,7 @@ class Bridge(object):
         self.last_sent = {}     # kind -> wall time of the last send
         self.sent = []          # (kind, command) that the console accepted
         self.refused = {}       # kind -> count of KO replies
-        self._logged_ko = set()
+        self._logged_ko = LogOnce(lambda text: self.warn(text))
         self._next_try = 0.0
         self._last_auth_error = None
         self._was_connected = False
@@ -448,11 +450,8 @@ class Bridge(object):
                 self.sent.append((kind, command))
             else:
                 self.refused[kind] = self.refused.get(kind, 0) + 1
-                key = (kind, text)
-                if key not in self._logged_ko:
-                    self._logged_ko.add(key)
-                    self.warn('emulator console refused %r: %s (logged once for %s)'
-                              % (command, text, kind))
+                self._logged_ko('emulator console refused %r: %s (logged once for %s)'
+                                % (command, text, kind), key=(kind, text))
         return n
 
     def next_wakeup(self, now):

@@ -1,9 +1,15 @@
-"""One error line per distinct cause: a bad command repeated 100 times, a missing ray caster
-asked at every sample, an unimplemented plugin in every model: each is said once.
+"""One line per distinct cause, the one "log once" of the repository: a bad command
+repeated 100 times, a broken GL context at every frame, an unimplemented plugin in every
+model, a console refusing the same command: each is said once.
 
 ``once = LogOnce(logger)``; ``once.error(text)`` logs ``text`` the first time only (key:
-the text, or ``key=``); ``once.warning``/``once.info`` alike; each returns True when it
-logged (``logger=`` another logger for this line). ``once.forget(key)`` lets a cause be said again (it went away and came back).
+the text, or ``key=``); ``once.warning``/``once.info`` alike; ``once(text)`` is
+``once.error(text)``; each returns True when it logged. ``logger`` is a ``logging.Logger``
+(or adapter) or any callable taking the line (``rospy.logerr``, ``list.append``).
+
+``LogOnce(logger, until_changed=True)``: a problem is said again once a different one (or
+``ok()``: it went away) came in between, for a stream (frames, clouds, joystick messages)
+whose problem may come back. ``reset()``/``ok()`` forget what was said.
 """
 import logging
 
@@ -11,17 +17,30 @@ __all__ = ['LogOnce']
 
 
 class LogOnce(object):
-    def __init__(self, logger=None):
+    def __init__(self, logger=None, until_changed=False):
         self.logger = logger or logging.getLogger('sim_world')
+        self.until_changed = until_changed
         self.seen = set()
+        self.last = None
 
     def log(self, level, text, key=None, logger=None):
         k = text if key is None else key
-        if k in self.seen:
+        if self.until_changed:
+            if k == self.last:
+                return False
+            self.last = k
+        elif k in self.seen:
             return False
         self.seen.add(k)
-        (logger or self.logger).log(level, '%s', text)
+        out = logger or self.logger
+        if isinstance(out, (logging.Logger, logging.LoggerAdapter)):
+            out.log(level, '%s', text)
+        else:
+            out(text)
         return True
+
+    def __call__(self, text, key=None):
+        return self.log(logging.ERROR, text, key)
 
     def error(self, text, key=None, logger=None):
         return self.log(logging.ERROR, text, key, logger)
@@ -32,5 +51,10 @@ class LogOnce(object):
     def info(self, text, key=None, logger=None):
         return self.log(logging.INFO, text, key, logger)
 
-    def forget(self, key):
-        self.seen.discard(key)
+    def reset(self):
+        """Forget everything said: the next problem is said again."""
+        self.seen.clear()
+        self.last = None
+
+    ok = reset
+    problem = __call__

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import plugins as plugin_registry
 from .environment import Environment
+from .logonce import LogOnce
 from .model import ModelError
 from .physics import make_engine
 from .sdf import load_world_file
@@ -101,6 +102,7 @@ class World(object):
         self._initial = {}                # model name -> Pose at spawn (reset_world)
         self._renderer = None
         self._shared = {}                 # see shared()
+        self._plugin_failed = LogOnce(self.log)   # one line per failing plugin
         self._next_plugin_time = math.inf
         self._static_poses = {}           # model name -> {link: Pose} for static models
         self.on_model_added = []          # callbacks(model) (ROS API: tf_static)
@@ -448,11 +450,10 @@ class World(object):
                     try:
                         p.update(t)
                     except Exception as e:  # noqa: BLE001 - one bad plugin must not stop the world
-                        key = (p.model.name, p.spec.filename)
-                        if not getattr(p, '_failed_once', False):
-                            p._failed_once = True
-                            self.log.error('plugin %s of model %s failed at t=%.3f: %s: %s',
-                                           key[1], key[0], t, type(e).__name__, e)
+                        self._plugin_failed.error(
+                            'plugin %s of model %s failed at t=%.3f: %s: %s'
+                            % (p.spec.filename, p.model.name, t, type(e).__name__, e),
+                            key=id(p))
             finally:
                 self.pass_states = None
         self.reschedule()

@@ -38,6 +38,7 @@ import threading
 import numpy as np
 
 from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array
+from sim_world.logonce import LogOnce
 from sim_world.plugins import Plugin, PluginError, register
 from sim_world.plugins.params import Param
 
@@ -238,7 +239,7 @@ class VideoPlugin(Plugin):
         label = 'video texture %s/%s' % (self.model.name, body)
         self.texture = VideoTexture(self.size[0], self.size[1], name=label,
                                     logger=self._log_error)
-        self._render_failed = False
+        self._render_failed = LogOnce(self._log_error)   # a broken GL stays broken: once
         self._uploaded = False
         self._subs = []
         if self.world.ros_enabled:
@@ -311,10 +312,8 @@ class VideoPlugin(Plugin):
                                                     face=self.face)
             self._uploaded = True
         except Exception as e:  # noqa: BLE001 - a GL problem must not stop the world loop
-            if not self._render_failed:          # said once (a broken GL stays broken)
-                self._render_failed = True
-                self._log_error('%s: cannot update the texture: %s'
-                                % (self.texture.name, e))
+            self._render_failed('%s: cannot update the texture: %s' % (self.texture.name, e),
+                                key='render')
 
     def texture_size(self, link):
         return (self.texture.width, self.texture.height) if link == self.body else None

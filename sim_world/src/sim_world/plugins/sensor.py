@@ -106,8 +106,8 @@ class Sensor(Device):
                 self.errors[prefix] = error_model_from(
                     p, prefix, d.get('dims', 1), rng=self.rng, spec=self.spec,
                     sdf_paths=d.get('sdf', ()), defaults=d)
-            except (ParamError, ValueError) as e:
-                self.log_error('%s: <noise> of channel %r must be %s; no noise on it'
+            except (ParamError, ValueError) as e:     # what is wrong with the SDF <noise>
+                self.log_error('%s: <noise> of channel %r: %s; no noise on it'
                                % (self.label, prefix or 'value', e))
                 self.errors[prefix] = error_model_from(
                     _Defaults(self.param_rows()), prefix, d.get('dims', 1), rng=self.rng,

@@ -16,7 +16,7 @@ def test_each_text_once_through_a_logger(caplog):
 
 def test_until_changed_says_a_problem_again_after_another_or_ok():
     lines = []
-    once = LogOnce(lines.append, until_changed=True)
+    once = LogOnce(say=lines.append, until_changed=True)
     for text in ('a', 'a', 'b', 'a', 'a'):
         once(text)
     once.ok()
@@ -24,11 +24,32 @@ def test_until_changed_says_a_problem_again_after_another_or_ok():
     assert lines == ['a', 'b', 'a', 'a']
 
 
+class _Logger(object):
+    """Not a logging.Logger: logging's methods only (like sim_world.node's rospy logger)."""
+
+    def __init__(self):
+        self.lines = []
+
+    def error(self, fmt, *args):
+        self.lines.append(('error', fmt % args))
+
+    def warning(self, fmt, *args):
+        self.lines.append(('warning', fmt % args))
+
+
 def test_reset_and_another_logger_for_one_line():
-    lines, other = [], []
-    once = LogOnce(lines.append)
+    lines, other = [], _Logger()
+    once = LogOnce(say=lines.append)
     once('a')
     once.reset()
     once('a')
-    once.error('b', logger=other.append)
-    assert lines == ['a', 'a'] and other == ['b']
+    once.warning('b', logger=other)
+    assert lines == ['a', 'a'] and other.lines == [('warning', 'b')]
+
+
+def test_a_logger_with_logging_methods_only():
+    lg = _Logger()
+    once = LogOnce(lg)
+    once.error('100%% bad')
+    once.error('100%% bad')
+    assert lg.lines == [('error', '100%% bad')]

@@ -359,7 +359,7 @@ class Bridge(object):
         self.last_sent = {}     # kind -> wall time of the last send
         self.sent = []          # (kind, command) that the console accepted
         self.refused = {}       # kind -> count of KO replies
-        self._logged_ko = LogOnce(lambda text: self.warn(text))
+        self._logged_ko = LogOnce(say=lambda text: self.warn(text))
         self._next_try = 0.0
         self._last_auth_error = None
         self._was_connected = False

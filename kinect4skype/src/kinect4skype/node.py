@@ -43,8 +43,8 @@ class Pcl2Image(object):
         self.lock = threading.Lock()
         self.last = None          # (xyz, rgb, header) of the last good cloud
         # a problem once, again only after it went away or changed (not at the cloud rate)
-        self.cloud_err = LogOnce(log_error or (lambda m: None), until_changed=True)
-        self.pose_err = LogOnce(log_error or (lambda m: None), until_changed=True)
+        self.cloud_err = LogOnce(say=log_error or (lambda m: None), until_changed=True)
+        self.pose_err = LogOnce(say=log_error or (lambda m: None), until_changed=True)
         self.images = 0
 
     def on_cloud(self, msg):

@@ -2,23 +2,28 @@
 repeated 100 times, a broken GL context at every frame, an unimplemented plugin in every
 model, a console refusing the same command: each is said once.
 
-``once = LogOnce(logger)``; ``once.error(text)`` logs ``text`` the first time only (key:
-the text, or ``key=``); ``once.warning``/``once.info`` alike; ``once(text)`` is
-``once.error(text)``; each returns True when it logged. ``logger`` is a ``logging.Logger``
-(or adapter) or any callable taking the line (``rospy.logerr``, ``list.append``).
+``once = LogOnce(logger)`` (anything with logging's ``error``/``warning``/``info``
+methods: a ``logging.Logger``, the world's rospy-backed logger) or ``LogOnce(say=f)`` (a
+callable taking the finished line: ``rospy.logerr``, ``list.append``). ``once.error(text)``
+logs ``text`` the first time only (key: the text, or ``key=``); ``once.warning``/
+``once.info`` alike; ``once(text)`` is ``once.error(text)``; each returns True when it
+logged (``logger=``: another logger for this line).
 
-``LogOnce(logger, until_changed=True)``: a problem is said again once a different one (or
-``ok()``: it went away) came in between, for a stream (frames, clouds, joystick messages)
-whose problem may come back. ``reset()``/``ok()`` forget what was said.
+``until_changed=True``: a problem is said again once a different one (or ``ok()``: it went
+away) came in between, for a stream (frames, clouds, joystick messages) whose problem may
+come back. ``reset()``/``ok()`` forget what was said.
 """
 import logging
 
 __all__ = ['LogOnce']
 
+_METHOD = {logging.ERROR: 'error', logging.WARNING: 'warning', logging.INFO: 'info'}
+
 
 class LogOnce(object):
-    def __init__(self, logger=None, until_changed=False):
+    def __init__(self, logger=None, say=None, until_changed=False):
         self.logger = logger or logging.getLogger('sim_world')
+        self.say = say
         self.until_changed = until_changed
         self.seen = set()
         self.last = None
@@ -32,11 +37,10 @@ class LogOnce(object):
         elif k in self.seen:
             return False
         self.seen.add(k)
-        out = logger or self.logger
-        if isinstance(out, (logging.Logger, logging.LoggerAdapter)):
-            out.log(level, '%s', text)
+        if self.say is not None and logger is None:
+            self.say(text)
         else:
-            out(text)
+            getattr(logger or self.logger, _METHOD[level])('%s', text)
         return True
 
     def __call__(self, text, key=None):

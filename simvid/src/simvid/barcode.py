@@ -152,7 +152,7 @@ class BarcodeReader(object):
         self.logger = logger or log.error
         self.problems = 0
         self.images = 0
-        self._reported = LogOnce(self.logger)
+        self._reported = LogOnce(say=self.logger)
 
     def _problem(self, text):
         self.problems += 1

@@ -64,7 +64,7 @@ class CameraMove(object):
         self.set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState,
                                             persistent=False)
         self.moves = 0
-        self._errors = LogOnce(lambda text: self.rospy.logerr('camera_move: %s', text),
+        self._errors = LogOnce(say=lambda text: self.rospy.logerr('camera_move: %s', text),
                                until_changed=True)
         self.sub = rospy.Subscriber(joy_topic, Joy, self.on_joy, queue_size=1)
 

@@ -37,7 +37,7 @@ PARAMS = {
 def OnceLogger(log):
     """Logs a message once, again only after a different message (or ``reset``): the
     repository's one log-once (sim_world.logonce)."""
-    return LogOnce(log, until_changed=True)
+    return LogOnce(say=log, until_changed=True)
 
 
 class FramePacer(object):

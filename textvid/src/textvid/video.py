@@ -239,7 +239,7 @@ class VideoPlugin(Plugin):
         label = 'video texture %s/%s' % (self.model.name, body)
         self.texture = VideoTexture(self.size[0], self.size[1], name=label,
                                     logger=self._log_error)
-        self._render_failed = LogOnce(self._log_error)   # a broken GL stays broken: once
+        self._render_failed = LogOnce(say=self._log_error)   # a broken GL stays broken: once
         self._uploaded = False
         self._subs = []
         if self.world.ros_enabled:

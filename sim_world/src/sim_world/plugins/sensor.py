@@ -125,6 +125,8 @@ class Sensor(Device):
         if value is None:
             return
         self.last_value = value
+        if self.ALWAYS_MEASURE and not self._any_wanted():
+            return                       # measured for its history; nobody to tell
         msgs = self.messages(value, self.stamp())
         for key, m in (msgs.items() if isinstance(msgs, dict) else msgs):
             if callable(m):              # built only when it can pass the gate
@@ -133,6 +135,9 @@ class Sensor(Device):
                 m = m()
             for one in (m if isinstance(m, list) else (m,)):
                 self.emit(key, one)
+
+    def _any_wanted(self):
+        return self.force or any(o.wanted() for o in self.pubs)
 
     def tick(self, sim_time, dt):
         """Called on every tick before the error models step and whoever listens."""

@@ -17,8 +17,6 @@ are sampled at ``updateRate`` (default 1 Hz of sim time) and published on every 
 Noise (``temperature*``, ``humidity*`` error model rows): default sigma 0.1 degC and 0.5 %
 RH (typical phone sensor figures; the Android CDD gives none).
 """
-import math
-
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor

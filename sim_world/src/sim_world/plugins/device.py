@@ -349,10 +349,11 @@ class Device(Plugin):
 
 
 class Actuator(Device):
-    """An output device (force, LED, vibration motor, projector, speaker): commands arrive
-    from any thread (``command(item)``), are taken at the next tick of its timer and acted
-    on in the world thread by ``act(sim_time, commands)``. No error models, no faults; its
-    state topics go through ``emit`` like a sensor's (subscriber gating, on change)."""
+    """An output device (force, LED, vibration motor, projector, speaker, thermal display):
+    commands arrive from any thread (``queue(item)``), are taken at the next tick of its
+    timer and acted on in the world thread by ``act(sim_time, commands)``. No error models,
+    no faults; its state topics go through ``emit`` like a sensor's (subscriber gating, on
+    change)."""
 
     def __init__(self, spec, model, world):
         Device.__init__(self, spec, model, world)

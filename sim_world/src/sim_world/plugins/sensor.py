@@ -40,8 +40,8 @@ and owns the whole update. On every tick of its ``UpdateTimer``:
    own faults (``FAULTS_OWN`` + ``on_fault``) act in its measurement. A fault the sensor
    cannot apply (no outputs, no noise) is refused with a ValueError saying why.
 
-No sensor overrides ``update``. Actuators (force, LED, vibration, projector, speaker) are
-``sim_world.plugins.device.Actuator``: no error models, no faults.
+No sensor overrides ``update``. Actuators (force, LED, vibration, projector, speaker,
+thermal display) are ``sim_world.plugins.device.Actuator``: no error models, no faults.
 """
 import copy
 import hashlib

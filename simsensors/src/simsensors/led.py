@@ -143,7 +143,7 @@ class Led(Actuator):
     def _show(self, rgb, t):
         self.shown = rgb
         self.transitions.append((t, rgb))
-        self._paint()
+        self.paint_link(rgb)
         self.power('led', self.p.power if rgb is not None else 0.0)
         m = self.ColorRGBA()
         if rgb is not None:
@@ -151,14 +151,8 @@ class Led(Actuator):
         self.last_msg = m
         self.emit('state', m)
 
-    def _paint(self):
-        try:
-            self.paint('set_link_color', self.model.name, self.body, self.shown, lit=False)
-        except KeyError:
-            pass                       # a link without a visual: only state and power
-
     def renderer_created(self, renderer):
-        self._paint()
+        self.paint_link(self.shown)
 
     def reset(self):
         Actuator.reset(self)

@@ -118,7 +118,7 @@ class ThermalDisplay(Actuator):
                                        self.p.timeConstant)
         if commands:                     # the last command of the tick wins
             self.target = commands[-1]
-        self._paint()
+        self.paint_link(self.color())
         self.power('thermal_display', self.p.powerPerKelvin
                    * abs(self.temperature - self.p.neutralTemperature))
         self.last_value = temp = self.temperature
@@ -132,14 +132,8 @@ class ThermalDisplay(Actuator):
         m.variance = 0.0
         return m
 
-    def _paint(self):
-        try:
-            self.paint('set_link_color', self.model.name, self.body, self.color(), lit=False)
-        except KeyError:
-            pass                       # a link without a visual: state and power only
-
     def renderer_created(self, renderer):
-        self._paint()
+        self.paint_link(self.color())
 
     def reset(self):
         Actuator.reset(self)

@@ -315,6 +315,14 @@ class Device(Plugin):
             return None
         return getattr(r, method)(*args, **kw)
 
+    def paint_link(self, rgb):
+        """Draw the body link unlit in ``rgb`` (0..1; None: its own material) in every
+        camera (an LED, the thermal display); a link without a visual: nothing to draw."""
+        try:
+            self.paint('set_link_color', self.model.name, self.body, rgb, lit=False)
+        except KeyError:
+            pass
+
     # -- state -------------------------------------------------------------------------------------
     def state(self, t=None):
         t = self.world.sim_time if t is None else t

@@ -91,7 +91,9 @@ class Output(object):
         self.on_change, self.repeat = on_change, float(repeat)
         self.last = None
         self.count = 0
-        self.held = None              # freeze: the message repeated
+        self.batch, self.batch_t = [], None   # the messages published at sim time batch_t
+        self.held = None              # freeze: the batch repeated (a sensor's fault)
+        self.held_i = (None, 0)       # (sim time, index into held) while repeating
         self.sent = None              # on_change: (content, sim time) last published
 
     def wanted(self):
@@ -115,9 +117,16 @@ class Output(object):
         self.sent = (c, now)
         return True
 
+    def note(self, msg, now):
+        """Remember ``msg`` as published at sim time ``now`` (the batch of one tick)."""
+        if now != self.batch_t:
+            self.batch, self.batch_t = [], now
+        self.batch.append(msg)
+
     def reset(self):
         self.held = None
         self.sent = None
+        self.batch, self.batch_t = [], None
 
     def unregister(self):
         if self.ros is not None:
@@ -267,6 +276,7 @@ class Device(Plugin):
         if key == 'main':
             self.last_msg = msg
         out.publish(msg)
+        out.note(msg, self.world.sim_time)
         return True
 
     def subscribe(self, rel_topic, msg_type, callback, queue_size=10):

@@ -155,19 +155,26 @@ class Sensor(Device):
         raise NotImplementedError
 
     def emit(self, key, msg):
-        """The gate: faults first (drop: nothing; freeze: the output's held message again,
-        or nothing for events), then subscribers and on-change (Device.emit)."""
+        """The gate: faults first (drop: nothing; freeze: the messages the output published
+        in its last tick before the fault, again, in order, with new stamps; nothing for
+        events), then subscribers and on-change (Device.emit)."""
         out = self.outputs[key]
         if msg is None or self.fault == 'drop':
             return False
         if self.fault == 'freeze':
             if out.event:
                 return False
-            if out.held is not None:
-                msg = _restamped(out.held, msg() if callable(msg) else msg)
+            if out.held:
+                now = self.world.sim_time
+                t, i = out.held_i
+                i = i if t == now else 0
+                if i >= len(out.held):
+                    return False          # more messages this tick than the frozen tick had
+                out.held_i = (now, i + 1)
+                msg = _restamped(out.held[i], msg() if callable(msg) else msg)
         sent = Device.emit(self, key, msg)
-        if sent and self.fault == 'freeze' and out.held is None:
-            out.held = out.last
+        if sent and self.fault == 'freeze' and not out.held:
+            out.held = out.batch          # nothing before the fault: the first tick after
         return sent
 
     # -- faults ------------------------------------------------------------------------------------
@@ -204,7 +211,8 @@ class Sensor(Device):
         for e in self.errors.values():
             e.noise_scale = self.noise_scale
         for o in self.pubs:
-            o.held = o.last if fault == 'freeze' else None
+            o.held = list(o.batch) if fault == 'freeze' else None
+            o.held_i = (None, 0)
 
     def on_fault(self, fault, value):
         """A sensor's own fault set (or 'none': cleared); read ``self.fault`` in measure."""

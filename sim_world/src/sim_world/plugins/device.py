@@ -144,16 +144,13 @@ class Device(Plugin):
     PARAMS = []
     DEFAULT_TOPIC = None
     DEFAULT_RATE = 10.0
-    #: the main output's message type when it needs no import (most sensors declare it in
-    #: ``setup`` with ``self.output('main', Type)``)
-    MSG = None
     #: the measurement reads the body's pose and velocities (False: sim time only)
     USES_POSE = True
     #: publisher queue: at real_time_factor 0 the world publishes bursts faster than a
     #: subscriber (a recorder) reads; 100 keeps a 100 Hz topic lossless over the testing
     #: instance's 0.25 s lockstep slices (10 dropped messages at real-time factor 5)
     QUEUE_SIZE = 100
-    LATCH = False
+    p = None                      # the parsed parameters (load)
 
     def __init__(self, spec, model, world):
         Plugin.__init__(self, spec, model, world)
@@ -212,8 +209,6 @@ class Device(Plugin):
         self.rng = self.world.rng(self.model.name, self.spec.name or self.spec.filename)
         self.load_more()
         self.topic = self.resolve(p.topicName or self.DEFAULT_TOPIC or self.spec.name)
-        if self.MSG is not None:
-            self.output('main', self.MSG, latch=self.LATCH)
         self.setup()
         if self.ros:
             import rospy
@@ -229,7 +224,7 @@ class Device(Plugin):
 
     @property
     def namespace(self):
-        ns = self.p.robotNamespace if hasattr(self, 'p') else None
+        ns = self.p.robotNamespace if self.p is not None else None
         if ns is None:
             ns = self.model.robot_namespace
         return (ns or '').strip('/')

@@ -9,14 +9,12 @@ A sensor declares::
         PARAMS = [Param('magnitude', float, None, unit='T', check='>=0')]
         DEFAULT_TOPIC = 'magnetic'
         DEFAULT_RATE = 50.0
-        MSG = MagneticField                      # the main publisher's type
         ERRORS = {'': dict(dims=3, gaussian_noise=1e-7)}
         def setup(self):                         # outputs: the main one and any others
             self.output('main', MagneticField)
         def measure(self, state, dt):            # link state + environment -> value
             return self.errors[''].apply(self.to_frame(self.env.magnetic_field_world(), state))
         def to_msg(self, value, stamp): ...      # the main message; or ``messages`` for all
-
 
 The base class reads the common parameters (body, topic, frame, namespace, rate, period,
 offset) and the sensor's rows in one place (``sim_world.plugins.params``), builds one

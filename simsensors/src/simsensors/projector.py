@@ -174,12 +174,11 @@ class Projector(Actuator):
 
     def _paint(self):
         on = self.enabled and self.image is not None
+        image = self.image if on else None
         try:
-            self.paint('set_projector', (self.model.name, self.spec.name), self.model.name,
-                                   self.body, self.p.fov, self.p.nearClipDist,
-                                   self.p.farClipDist, self.image if on else None,
-                                   self.p.brightness)
-            if self.world.renderer_if_created is not None:
+            if self.paint(lambda r: r.set_projector(
+                    (self.model.name, self.spec.name), self.model.name, self.body, self.p.fov,
+                    self.p.nearClipDist, self.p.farClipDist, image, self.p.brightness)):
                 self.shown = (on, id(self.image))
         except Exception as e:  # noqa: BLE001
             self.log_error('%s: cannot project: %s' % (self.label, e))
@@ -188,6 +187,6 @@ class Projector(Actuator):
         self._paint()
 
     def shutdown(self):
-        self.paint('remove_projector', (self.model.name, self.spec.name))
+        self.paint(lambda r: r.remove_projector((self.model.name, self.spec.name)))
         self.power('projector', 0.0)
         Actuator.shutdown(self)

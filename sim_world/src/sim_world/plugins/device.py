@@ -312,19 +312,21 @@ class Device(Plugin):
         """Set a switch of this phone on the power bus (wifi on, display brightness ...)."""
         self.world.power.set_flag(self.model.name, name, value)
 
-    def paint(self, method, *args, **kw):
-        """Call ``method`` of the world's renderer if one exists (LEDs, the thermal display,
-        the projector change what cameras see; without a camera there is nothing to do)."""
+    def paint(self, draw):
+        """``draw(renderer)`` if the world has a renderer (LEDs, the thermal display, the
+        projector change what cameras see; without a camera there is nothing to draw).
+        True when it drew."""
         r = self.world.renderer_if_created
         if r is None:
-            return None
-        return getattr(r, method)(*args, **kw)
+            return False
+        draw(r)
+        return True
 
     def paint_link(self, rgb):
         """Draw the body link unlit in ``rgb`` (0..1; None: its own material) in every
         camera (an LED, the thermal display); a link without a visual: nothing to draw."""
         try:
-            self.paint('set_link_color', self.model.name, self.body, rgb, lit=False)
+            self.paint(lambda r: r.set_link_color(self.model.name, self.body, rgb, lit=False))
         except KeyError:
             pass
 

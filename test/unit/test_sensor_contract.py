@@ -34,8 +34,9 @@ PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 T_FAULT, T_NFC, T_END = 0.6, 1.695, 2.2     # T_NFC: 5 ms before an NFC tick
 NOISE = 10.0
 
-CLASSES = sorted(set(registry.lookup(n) for n in registry.registered_names()),
-                 key=lambda c: c.__name__)
+#: every plugin of the repository's plugin modules (not test doubles registered by tests)
+CLASSES = sorted(set(c for c in (registry.lookup(n) for n in registry.registered_names())
+                     if c.__module__ in registry.plugin_modules()), key=lambda c: c.__name__)
 DEVICES = [c for c in CLASSES if issubclass(c, Device)]
 OWN = sorted(set((c.__name__, f) for c in CLASSES if issubclass(c, Sensor)
                  for f in c.FAULTS_OWN))

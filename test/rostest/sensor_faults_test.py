@@ -2,7 +2,6 @@
 """rostest: sensor faults through rosservice act on every output (sensor_faults.test)."""
 import re
 import subprocess
-import time
 import unittest
 
 import rospy
@@ -10,7 +9,6 @@ import rostest
 from sensor_msgs.msg import BatteryState, Imu
 
 from mobile_device_sim.msg import ContactsState, PowerState
-from mobile_device_sim.srv import GetModelState
 
 NS = '/mobile_device/'
 
@@ -42,10 +40,7 @@ class SensorFaults(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('sensor_faults_test')
         rospy.wait_for_service('/gazebo/set_sensor_fault', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 60
-        while time.time() < deadline and not get('mobile_device', 'world').success:
-            time.sleep(0.2)
+        rospy.wait_for_message(NS + 'imu_sensor_data', Imu, timeout=120)   # the phone is in
         cls.rec = dict(battery_state=Recorder('battery_state', BatteryState),
                        power_state=Recorder('power_state', PowerState),
                        contacts=Recorder('contacts', ContactsState),

@@ -16,7 +16,6 @@ while somebody subscribes (a latched output always; without ROS always), and an 
 declared ``on_change`` (with ``repeat`` s) publishes only when the message's content (all
 but its header) differs from the last one it published, or ``repeat`` s of sim time later.
 """
-import logging
 import threading
 
 import numpy as np
@@ -25,10 +24,9 @@ from ..logonce import LogOnce
 from . import Plugin, PluginError
 from .params import Param
 
-__all__ = ['Device', 'Actuator', 'Output', 'Publisher', 'BASE_PARAMS', 'DEVICE_FRAME',
-           'SensorState']
+__all__ = ['Device', 'Actuator', 'Output', 'BASE_PARAMS', 'DEVICE_FRAME', 'SensorState',
+           'content']
 
-log = logging.getLogger('sim_world.device')
 
 #: Android's device frame (x right, y up along the long edge, z out of the screen)
 DEVICE_FRAME = 'mobile_device_frame'
@@ -132,10 +130,6 @@ class Output(object):
         if self.ros is not None:
             self.ros.unregister()
             self.ros = None
-
-
-#: the earlier name of Output
-Publisher = Output
 
 
 class Device(Plugin):

@@ -33,8 +33,8 @@ and owns the whole update. On every tick of its ``UpdateTimer``:
    building one}; default: the main output's ``to_msg``) to the gate;
 3. the gate (``emit``; event sensors call it themselves for events between ticks) applies
    subscriber gating and the fault to every output alike (``set_fault``): ``drop``
-   publishes nothing; ``freeze`` repeats each sampled output's last message (new stamp)
-   and stops event outputs; ``noise`` multiplies every error model's sigma; the sensor's
+   publishes nothing; ``freeze`` repeats the messages each sampled output published in its
+   last tick before the fault (new stamps) and stops event outputs; ``noise`` multiplies every error model's sigma; the sensor's
    own faults (``FAULTS_OWN`` + ``on_fault``) act in its measurement. A fault the sensor
    cannot apply (no outputs, no noise) is refused with a ValueError saying why.
 
@@ -43,20 +43,15 @@ thermal display) are ``sim_world.plugins.device.Actuator``: no error models, no 
 """
 import copy
 import hashlib
-import logging
 
 import numpy as np
 
-from . import PluginError  # noqa: F401 - re-exported for sensors
-from .device import (BASE_PARAMS, DEVICE_FRAME, Device, Output, Publisher,  # noqa: F401
-                     SensorState, content)
+from .device import BASE_PARAMS, DEVICE_FRAME, Device, Output, SensorState, content
 from .error_models import error_model_from, error_params
 from .params import ParamError
 
-__all__ = ['Sensor', 'SensorState', 'Output', 'Publisher', 'BASE_PARAMS', 'DEVICE_FRAME',
-           'FAULTS', 'stable_seed', 'content', 'inject_fault']
-
-log = logging.getLogger('sim_world.sensor')
+__all__ = ['Sensor', 'SensorState', 'Output', 'BASE_PARAMS', 'DEVICE_FRAME', 'FAULTS',
+           'stable_seed', 'content', 'inject_fault']
 
 #: faults every sensor understands; sensors add their own through ``FAULTS_OWN`` + ``on_fault``
 FAULTS = ('none', 'drop', 'freeze', 'noise')

@@ -123,7 +123,8 @@ class Output(object):
 
     def reset(self):
         self.held = None
-        self.sent = None
+        if not self.latch:            # a latched message stays what late subscribers get
+            self.sent = None
         self.batch, self.batch_t = [], None
 
     def unregister(self):

@@ -218,6 +218,24 @@ def test_own_fault_changes_every_output(name, fault):
             '%s %s: fault %s changed nothing' % (name, key, fault)
 
 
+def test_a_name_matching_a_sensor_and_an_output_device_faults_the_sensor():
+    """``temperature`` names the ambient sensor's topic and the thermal display's command
+    topic (.../thermal_display/temperature): the fault goes to the sensor."""
+    w = World(physics='ode', seed=1)
+    try:
+        w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
+        found = w.find_plugins('mobile_device', 'temperature')
+        assert sorted(type(p).__name__ for p in found) == ['Ambient', 'ThermalDisplay']
+        inject_fault(found, 'drop')
+        assert [p.fault for p in found if isinstance(p, Sensor)] == ['drop']
+        led = w.find_plugins('mobile_device', 'led')
+        with pytest.raises(ValueError) as e:
+            inject_fault(led, 'drop')
+        assert 'Led' in str(e.value) and 'not a sensor' in str(e.value)
+    finally:
+        w.shutdown()
+
+
 def test_unknown_fault_is_refused_with_the_known_ones():
     cls = INSTANCES['ImuPlugin'][0]
     w = World(physics='ode', seed=1)

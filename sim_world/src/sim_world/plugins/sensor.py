@@ -217,17 +217,18 @@ class Sensor(Device):
 
 
 def inject_fault(plugins, fault, value=0.0):
-    """Set ``fault`` on every plugin of ``plugins`` (those a /gazebo/set_sensor_fault call
-    names); ValueError saying why not when one of them cannot take it (not a sensor: an
-    output device, a camera, a video texture; or the sensor refuses it). Nothing is set
-    unless every plugin takes it."""
-    for p in plugins:
-        if not isinstance(p, Sensor):
-            raise ValueError('%s (%s) is not a sensor of the sensor layer: faults apply to '
-                             'sensors' % (p.label, type(p).__name__))
+    """Set ``fault`` on the sensors among ``plugins`` (those a /gazebo/set_sensor_fault call
+    names: a topic name may match an output device's too, e.g. ``temperature``); ValueError
+    saying why not when none is a sensor (an output device, a camera, a video texture) or a
+    sensor refuses it. Nothing is set unless every sensor takes it."""
+    sensors = [p for p in plugins if isinstance(p, Sensor)]
+    if not sensors:
+        raise ValueError('%s: not a sensor of the sensor layer (%s): faults apply to sensors'
+                         % (', '.join(p.label for p in plugins),
+                            ', '.join(type(p).__name__ for p in plugins)))
     done = []
     try:
-        for p in plugins:
+        for p in sensors:
             old = (p.fault, p.fault_value)
             p.set_fault(fault, value)
             done.append((p, old))

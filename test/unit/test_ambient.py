@@ -113,7 +113,6 @@ def test_2011_syntax():
 @pytest.mark.parametrize('params, words', [
     ('<temperatureGaussianNoise>-1</temperatureGaussianNoise>', 'temperatureGaussianNoise must be'),
     ('<onChangeOnly>maybe</onChangeOnly>', 'onChangeOnly must be'),
-    ('<updateRate>-1</updateRate>', 'updateRate must be'),
 ])
 def test_bad_parameters_one_line_and_loads(params, words, caplog):
     w = make_world('ode')

@@ -121,7 +121,6 @@ def test_hector_name_and_2011_syntax():
 @pytest.mark.parametrize('params, words', [
     ('<noiseModel>pink</noiseModel>', 'noiseModel must be'),
     ('<stepMaximum>-1</stepMaximum>', 'stepMaximum must be'),
-    ('<updateRate>-1</updateRate>', 'updateRate must be'),
 ])
 def test_bad_parameters_one_line_and_loads(params, words, caplog):
     w = make_world('ode')

@@ -3,6 +3,7 @@ syntaxes (thesis table 4.1 / Gazebo classic), rate capping, topic names, bad par
 frames rendered through a world stand-in, set_hfov / set_update_rate."""
 import logging
 import math
+import threading
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -47,10 +48,14 @@ CLASSIC = '''<sensor type="camera" name="cam1">
 
 
 class World(object):
-    """What a plugin may use of sim_world.world.World, without ROS."""
+    """What a camera uses of sim_world.world.World (sim_world.plugins.WORLD_SEAM), without
+    ROS."""
     ros_enabled = False
+    parallel_render = False
+    log = logging.getLogger('test.camera')
 
     def __init__(self, models):
+        self.lock = threading.RLock()
         self.models = {m.name: m for m in models}
         self.renderer = Renderer()
         for m in models:
@@ -63,6 +68,12 @@ class World(object):
 
     def ros_now(self):
         return None
+
+    def reschedule(self):
+        pass
+
+    def flush(self):
+        pass
 
 
 def _phone(pose=None):

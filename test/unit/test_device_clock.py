@@ -93,7 +93,6 @@ def test_2011_syntax():
 @pytest.mark.parametrize('params, words', [
     ('<driftPpm>fast</driftPpm>', 'driftPpm must be'),
     ('<offset>-3</offset>', 'offset must be'),
-    ('<updateRate>-1</updateRate>', 'updateRate must be'),
 ])
 def test_bad_parameters_one_line_and_loads(params, words, caplog):
     w = World(physics='ode', seed=1)

@@ -179,7 +179,6 @@ def test_latlon_start_of_the_2011_syntax():
 @pytest.mark.parametrize('params, words', [
     ('<LatLon>95 11</LatLon>', 'LatLon must be two numbers "latitude longitude" in degrees, latitude in [-90, 90]'),
     ('<referenceLatitude>-91</referenceLatitude>', 'referenceLatitude must be'),
-    ('<updateRate>-1</updateRate>', 'updateRate must be'),
     ('<coldStartTime>soon</coldStartTime>', 'coldStartTime must be'),
 ])
 def test_bad_parameters_one_line_and_loads(params, words, caplog):

@@ -143,22 +143,3 @@ def test_bad_params_one_line(caplog, params, words):
         assert w.plugins['r'][0].last_value[0] > 100
     finally:
         w.shutdown()
-
-
-def test_loads_in_the_2011_syntax():
-    """The thesis's <controller:... plugin="lib....so"> form loads the same plugin."""
-    w = World(physics='ode', seed=1)
-    try:
-        w.add_model(parse_urdf('''<robot name="r"
-            xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
-          <link name="base"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-          <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-          <gazebo><controller:x name="p" plugin="libgazebo_ros_light_sensor.so"><updateRate>7</updateRate>
-          <robotNamespace>/phone</robotNamespace></controller:x></gazebo></robot>'''),
-                    pose=Pose((0, 0, 1)))
-        p = w.plugins['r'][0]
-        assert isinstance(p, LightSensor) and p.update_rate == 7.0 and p.topic.startswith('/phone/')
-        w.step(300)
-        assert p.last_value is not None
-    finally:
-        w.shutdown()

@@ -177,6 +177,19 @@ def test_hector_prefixed_and_sdf_noise_names():
         (0.1, 0.2, 0.3, 0.01, 0.05, 0.1, 0.5))
 
 
+@pytest.mark.parametrize('noise, line', [
+    ('<stddev>abc</stddev>', "<stddev> must be a number >= 0, got 'abc'"),
+    ('<stddev>-1</stddev>', "<stddev> must be a number >= 0, got '-1'"),
+    ('<mean>nan</mean>', "<mean> must be a number, got 'nan'"),
+])
+def test_bad_sdf_noise_is_one_clear_line(noise, line):
+    from sim_world.plugins.error_models import _sdf_noise
+    from sim_world.plugins.params import ParamError
+    with pytest.raises(ParamError) as e:
+        _sdf_noise(ET.fromstring('<noise type="gaussian">%s</noise>' % noise), 1)
+    assert str(e.value) == line
+
+
 # -- seeds --------------------------------------------------------------------------------------
 def test_world_generators_depend_on_seed_and_names_only():
     a, b, c = World(seed=7), World(seed=7), World(seed=8)

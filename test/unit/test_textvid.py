@@ -269,9 +269,11 @@ class RecordingRenderer(object):
 
 class FakeWorld(object):
     ros_enabled = False
+    log = logging.getLogger('test.textvid')
 
     def __init__(self, renderer=None):
         self.renderer = renderer or RecordingRenderer()
+        self.renderer_if_created = self.renderer     # None: like World before a camera
         self.sim_time = 0.0
 
 
@@ -400,12 +402,12 @@ def test_update_uploads_blue_then_each_new_image_once():
 def test_no_renderer_is_created_for_a_display_nobody_looks_at():
     world = FakeWorld()
     renderer = world.renderer
-    world._renderer = None                      # like World before the first camera
+    world.renderer_if_created = None            # like World before the first camera
     p = plugins.create(_spec('<bodyName>mobile_display</bodyName>'), _model(), world)
     p.on_image(array_to_image(RGB, 'rgb8'))
     p.update(0.0)
     assert renderer.calls == []
-    world._renderer = renderer                  # a camera created it: the image follows
+    world.renderer_if_created = renderer        # a camera created it: the image follows
     p.update(0.1)
     assert len(renderer.calls) == 1 and renderer.calls[0][2].shape == (512, 307, 3)
 

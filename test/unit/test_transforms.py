@@ -62,3 +62,13 @@ def test_bad_joy_values():
         movement_from_axes([float('nan'), 0, 0])
     with pytest.raises(ValueError):
         movement_from_axes([1, 0, 0], linear_scaler=0)
+
+
+def test_batched_matrices_equal_one_by_one():
+    from sim_world.transforms import quat_to_matrices, quat_to_matrix
+    qs = np.array([quat_from_rpy(r, p, y) for r, p, y in
+                   ((0, 0, 0), (0.3, -0.2, 1.0), (math.pi, 0.1, -2.0))])
+    got = quat_to_matrices(qs)
+    assert got.shape == (3, 3, 3)
+    for q, m in zip(qs, got):
+        assert np.allclose(m, quat_to_matrix(q))

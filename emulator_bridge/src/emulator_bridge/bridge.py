@@ -29,6 +29,9 @@ import time
 
 import numpy as np
 
+from sim_world.logonce import LogOnce
+from sim_world.transforms import quat_normalize, quat_to_matrix
+
 DEFAULT_TOKEN_FILE = '~/.emulator_console_auth_token'
 G = 9.80665
 
@@ -55,18 +58,6 @@ def mbit_to_kbit(mbit):
     return float(mbit) * 1000.0
 
 
-def _rot(q):
-    x, y, z, w = (float(v) for v in q)
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if not math.isfinite(n) or n < 1e-9:
-        raise ValueError('orientation quaternion %s is not a rotation' % ([x, y, z, w],))
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
 def orientation_angles(q, north_alpha_deg=90.0):
     """(azimuth, pitch, roll) in degrees, Android's convention, of the device frame whose
     orientation in the world is the quaternion ``q`` (x, y, z, w; device -> world).
@@ -81,7 +72,7 @@ def orientation_angles(q, north_alpha_deg=90.0):
     north = np.array([math.cos(a), math.sin(a), 0.0])
     east = np.array([math.sin(a), -math.cos(a), 0.0])
     up = np.array([0.0, 0.0, 1.0])
-    r = np.vstack([east, north, up]).dot(_rot(q))
+    r = np.vstack([east, north, up]).dot(quat_to_matrix(quat_normalize(q)))
     azimuth = math.degrees(math.atan2(r[0, 1], r[1, 1])) % 360.0
     pitch = math.degrees(math.asin(max(-1.0, min(1.0, -r[2, 1]))))
     roll = math.degrees(math.atan2(-r[2, 0], r[2, 2]))
@@ -368,7 +359,7 @@ class Bridge(object):
         self.last_sent = {}     # kind -> wall time of the last send
         self.sent = []          # (kind, command) that the console accepted
         self.refused = {}       # kind -> count of KO replies
-        self._logged_ko = set()
+        self._logged_ko = LogOnce(say=lambda text: self.warn(text))
         self._next_try = 0.0
         self._last_auth_error = None
         self._was_connected = False
@@ -448,11 +439,8 @@ class Bridge(object):
                 self.sent.append((kind, command))
             else:
                 self.refused[kind] = self.refused.get(kind, 0) + 1
-                key = (kind, text)
-                if key not in self._logged_ko:
-                    self._logged_ko.add(key)
-                    self.warn('emulator console refused %r: %s (logged once for %s)'
-                              % (command, text, kind))
+                self._logged_ko('emulator console refused %r: %s (logged once for %s)'
+                                % (command, text, kind), key=(kind, text))
         return n
 
     def next_wakeup(self, now):

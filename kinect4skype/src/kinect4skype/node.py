@@ -28,27 +28,11 @@ from geometry_msgs.msg import Pose as PoseMsg
 from sensor_msgs.msg import Image, PointCloud2
 
 from simvid.imageconv import array_to_image
+from sim_world.logonce import LogOnce
 from sim_world.transforms import Pose
 
 from .cloud import UnsupportedCloud, cloud_to_arrays
 from .render import COLOR_MODES, PointCloudRenderer, viewpoint_from_list
-
-
-class OnceLogger(object):
-    """Logs a problem once, and again only after it went away or changed (no flooding
-    at the cloud rate)."""
-
-    def __init__(self, log):
-        self.log = log
-        self.last = None
-
-    def problem(self, text):
-        if text != self.last:
-            self.log(text)
-            self.last = text
-
-    def ok(self):
-        self.last = None
 
 
 class Pcl2Image(object):
@@ -58,8 +42,9 @@ class Pcl2Image(object):
         self.frame_id = frame_id
         self.lock = threading.Lock()
         self.last = None          # (xyz, rgb, header) of the last good cloud
-        self.cloud_err = OnceLogger(log_error or (lambda m: None))
-        self.pose_err = OnceLogger(log_error or (lambda m: None))
+        # a problem once, again only after it went away or changed (not at the cloud rate)
+        self.cloud_err = LogOnce(say=log_error or (lambda m: None), until_changed=True)
+        self.pose_err = LogOnce(say=log_error or (lambda m: None), until_changed=True)
         self.images = 0
 
     def on_cloud(self, msg):

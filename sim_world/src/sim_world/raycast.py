@@ -26,6 +26,8 @@ Materials: a collision may name its material for the radio (``<collision><materi
 """
 import numpy as np
 
+from .transforms import quat_to_matrix
+
 __all__ = ['Hit', 'RayCaster', 'raycast', 'segment_intervals', 'caster']
 
 _EPS = 1e-12
@@ -43,13 +45,6 @@ class Hit(object):
 
     def __repr__(self):
         return '<Hit %s::%s at %.4g m>' % (self.model, self.link, self.distance)
-
-
-def _rot(q):
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 class _Kind(object):
@@ -172,12 +167,12 @@ class RayCaster(object):
                 continue
             kd = self.kinds[k]
             w = root * kd.local[i]
-            kd.R[i] = _rot(w.q)
+            kd.R[i] = quat_to_matrix(w.q)
             kd.t[i] = w.p
         for i in self.mesh_index.get(name, ()):
             m = self.meshes[i]
             w = root * m['local']
-            R = _rot(w.q)
+            R = quat_to_matrix(w.q)
             tw = m['tris'].dot(R.T) + w.p
             sl = m['sl']
             self.v0[sl] = tw[:, 0]

@@ -10,7 +10,8 @@ import math
 import numpy as np
 
 __all__ = ['Pose', 'InvalidPose', 'quat_from_rpy', 'rpy_from_quat', 'quat_multiply',
-           'quat_rotate', 'quat_to_matrix', 'quat_normalize', 'matrix_to_quat']
+           'quat_rotate', 'quat_to_matrix', 'quat_to_matrices', 'quat_normalize',
+           'matrix_to_quat', 'quat_conjugate']
 
 
 class InvalidPose(ValueError):
@@ -85,6 +86,24 @@ def quat_to_matrix(q):
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def quat_to_matrices(q):
+    """(n, 3, 3) rotation matrices of n quaternions given as rows (x, y, z, w) (the
+    renderer's batch of link poses)."""
+    q = np.asarray(q, float)
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    m = np.empty((len(q), 3, 3))
+    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    m[:, 0, 1] = 2 * (x * y - z * w)
+    m[:, 0, 2] = 2 * (x * z + y * w)
+    m[:, 1, 0] = 2 * (x * y + z * w)
+    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    m[:, 1, 2] = 2 * (y * z - x * w)
+    m[:, 2, 0] = 2 * (x * z - y * w)
+    m[:, 2, 1] = 2 * (y * z + x * w)
+    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return m
 
 
 def matrix_to_quat(m):

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import plugins as plugin_registry
 from .environment import Environment
+from .logonce import LogOnce
 from .model import ModelError
 from .physics import make_engine
 from .sdf import load_world_file
@@ -100,6 +101,8 @@ class World(object):
         self.sim_time = 0.0
         self._initial = {}                # model name -> Pose at spawn (reset_world)
         self._renderer = None
+        self._shared = {}                 # see shared()
+        self._plugin_failed = LogOnce(self.log)   # one line per failing plugin
         self._next_plugin_time = math.inf
         self._static_poses = {}           # model name -> {link: Pose} for static models
         self.on_model_added = []          # callbacks(model) (ROS API: tf_static)
@@ -152,7 +155,7 @@ class World(object):
                 if p is not None:
                     p.timer.reset(self.sim_time)
                     self.plugins[model.name].append(p)
-            self._reschedule()
+            self.reschedule()
             for cb in self.on_model_added:
                 cb(model)
             return model
@@ -174,7 +177,7 @@ class World(object):
             self._initial.pop(name, None)
             self._static_poses.pop(name, None)
             self.power.forget(name)
-            self._reschedule()
+            self.reschedule()
             for cb in self.on_model_deleted:
                 cb(name)
 
@@ -220,6 +223,50 @@ class World(object):
         for name in self.models:
             self._renderer.set_link_poses(name, self.link_poses(name))
 
+    @property
+    def renderer_if_created(self):
+        """The renderer if a camera made one, else None (plugins that only change what
+        cameras see have nothing to do without one)."""
+        return self._renderer
+
+    # -- what plugins share ----------------------------------------------------------------------
+    def shared(self, name, factory):
+        """The world's one object named ``name`` (an NFC proxy, an audio scene), made by
+        ``factory(world)`` on first use: per-world state of a plugin family."""
+        obj = self._shared.get(name)
+        if obj is None:
+            obj = self._shared[name] = factory(self)
+        return obj
+
+    def transmitters(self, kind=None):
+        """The radio transmitters in the world (of one ``kind``: wifi, cell, bluetooth), in
+        a stable order (by id)."""
+        txs = [t for t in self.environment.transmitters if kind is None or t.kind == kind]
+        return sorted(txs, key=lambda t: (t.id, t.model))
+
+    def add_transmitter(self, tx):
+        self.environment.transmitters.append(tx)
+
+    def remove_transmitter(self, tx):
+        if tx in self.environment.transmitters:
+            self.environment.transmitters.remove(tx)
+
+    def contacts(self, model_name, link_name=None):
+        """The physics engine's contact points of a model (or one link of it) now."""
+        return self.physics.contacts(model_name, link_name)
+
+    def apply_wrench(self, model_name, force, torque=None, steps=1, key=None):
+        """A force (N) and torque (N m) in the world frame on a model for ``steps`` physics
+        steps (None: until cleared; rows of forces: one per step) under ``key``."""
+        return self.physics.apply_wrench(model_name, force, torque, steps=steps, key=key)
+
+    def clear_wrench(self, model_name, key):
+        """End the wrench ``key`` on a model (nothing if the model is gone)."""
+        try:
+            self.physics.clear_wrench(model_name, key)
+        except KeyError:
+            pass
+
     # -- state -------------------------------------------------------------------------------
     def raycast(self, origin, direction, max_dist, ignore=()):
         """First collision surface along a ray, or None (sim_world.raycast)."""
@@ -255,6 +302,17 @@ class World(object):
             return self.models[name].pose, np.zeros(3), np.zeros(3)
         pose, lin, ang = self.physics.model_state(name)
         return pose, np.asarray(lin, float), np.asarray(ang, float)
+
+    def pass_state(self, entity):
+        """``entity_state``, read once per plugin pass: the sensors on the same link share it
+        (a teleport during the pass clears it, nothing outlives the pass)."""
+        cache = self.pass_states
+        if cache is None:
+            return self.entity_state(entity)
+        got = cache.get(entity)
+        if got is None:
+            got = cache[entity] = self.entity_state(entity)
+        return got
 
     def entity_state(self, entity):
         """State of a model, of 'model::link', or of a link name unique in the world."""
@@ -393,16 +451,16 @@ class World(object):
                     try:
                         p.update(t)
                     except Exception as e:  # noqa: BLE001 - one bad plugin must not stop the world
-                        key = (p.model.name, p.spec.filename)
-                        if not getattr(p, '_failed_once', False):
-                            p._failed_once = True
-                            self.log.error('plugin %s of model %s failed at t=%.3f: %s: %s',
-                                           key[1], key[0], t, type(e).__name__, e)
+                        self._plugin_failed.error(
+                            'plugin %s of model %s failed at t=%.3f: %s: %s'
+                            % (p.spec.filename, p.model.name, t, type(e).__name__, e),
+                            key=id(p))
             finally:
                 self.pass_states = None
-        self._reschedule()
+        self.reschedule()
 
-    def _reschedule(self):
+    def reschedule(self):
+        """Recompute when the next plugin falls due (after a plugin changed its rate)."""
         nxt = math.inf
         now = self.sim_time
         for ps in self.plugins.values():
@@ -426,7 +484,7 @@ class World(object):
                 for p in ps:
                     p.reset()
                     p.timer.reset(self.sim_time)
-            self._reschedule()
+            self.reschedule()
 
     def shutdown(self):
         self.flush()

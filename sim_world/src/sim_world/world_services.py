@@ -15,6 +15,7 @@ from mobile_device_sim.srv import (SetEnvironment, SetEnvironmentResponse, SetSe
                                    SetSensorFaultResponse)
 
 from .environment import EnvironmentError
+from .plugins.sensor import inject_fault
 
 __all__ = ['WorldServices', 'environment_msg']
 
@@ -64,16 +65,14 @@ class WorldServices(object):
             if req.model_name not in self.world.models:
                 res.status_message = 'SetSensorFault: no model named %r' % req.model_name
             else:
-                found = [p for p in self.world.find_plugins(req.model_name, req.sensor)
-                         if hasattr(p, 'set_fault')]
+                found = self.world.find_plugins(req.model_name, req.sensor)
                 if not found:
                     res.status_message = ('SetSensorFault: model %r has no sensor %r (give the '
                                           'plugin name, library file name or a topic)'
                                           % (req.model_name, req.sensor))
                 else:
                     try:
-                        for p in found:
-                            p.set_fault(req.fault or 'none', req.value)
+                        inject_fault(found, req.fault or 'none', req.value)
                         res.success = True
                         res.status_message = 'SetSensorFault: %s of %s: %s %g' % (
                             req.sensor, req.model_name, req.fault or 'none', req.value)

@@ -17,8 +17,6 @@ are sampled at ``updateRate`` (default 1 Hz of sim time) and published on every 
 Noise (``temperature*``, ``humidity*`` error model rows): default sigma 0.1 degC and 0.5 %
 RH (typical phone sensor figures; the Android CDD gives none).
 """
-import math
-
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
@@ -30,7 +28,6 @@ __all__ = ['Ambient']
 class Ambient(Sensor):
     DEFAULT_TOPIC = 'temperature'
     DEFAULT_RATE = 1.0
-    PUBLISH_EVERY_TICK = False          # two topics: published here
     ERRORS = {'temperature': dict(dims=1, gaussian_noise=0.1),
               'humidity': dict(dims=1, gaussian_noise=0.5)}
     PARAMS = [
@@ -46,10 +43,11 @@ class Ambient(Sensor):
     def setup(self):
         from sensor_msgs.msg import RelativeHumidity, Temperature
         self.Temperature, self.RelativeHumidity = Temperature, RelativeHumidity
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, Temperature)
-        self.hum_pub = self.advertise(self.p.humidityTopicName, RelativeHumidity)
-        self._sent = {}
+        p = self.p
+        repeat = p.repeatPeriod if p.onChangeOnly else 0.0
+        self.output('main', Temperature, on_change=p.onChangeOnly, repeat=repeat)
+        self.hum_pub = self.output('humidity', RelativeHumidity, topic=p.humidityTopicName,
+                                   on_change=p.onChangeOnly, repeat=repeat)
 
     @staticmethod
     def _round(v, res):
@@ -62,39 +60,16 @@ class Ambient(Sensor):
         h = min(100.0, max(0.0, h))
         p = self.p
         t, h = self._round(t, p.temperatureResolution), self._round(h, p.humidityResolution)
-        value = (float(t), float(h))
-        self._publish(state.t, value)
-        return value
+        return (float(t), float(h))
 
-    def _due(self, key, v, now):
-        if not self.p.onChangeOnly:
-            return True
-        last = self._sent.get(key)
-        return last is None or last[0] != v or (self.p.repeatPeriod > 0 and
-                                                 now - last[1] >= self.p.repeatPeriod - 1e-9)
-
-    def _publish(self, now, value):
+    def messages(self, value, stamp):
         t, h = value
-        if self.fault == 'drop':
-            return
-        stamp = None
-        if (self.pub.wanted() or self.force) and self._due('t', t, now):
-            stamp = self.stamp()
-            m = self.Temperature()
-            m.header.stamp, m.header.frame_id = stamp, self.frame_id
-            m.temperature = t
-            m.variance = float(self.errors['temperature'].variance[0])
-            self.pub.publish(m)
-            self.last_msg = m
-            self._sent['t'] = (t, now)
-        if (self.hum_pub.wanted() or self.force) and self._due('h', h, now):
-            m = self.RelativeHumidity()
-            m.header.stamp, m.header.frame_id = stamp or self.stamp(), self.frame_id
-            m.relative_humidity = h / 100.0
-            m.variance = float(self.errors['humidity'].variance[0]) / 1e4
-            self.hum_pub.publish(m)
-            self._sent['h'] = (h, now)
-
-    def reset(self):
-        Sensor.reset(self)
-        self._sent = {}
+        m = self.Temperature()
+        m.header.stamp, m.header.frame_id = stamp, self.frame_id
+        m.temperature = t
+        m.variance = float(self.errors['temperature'].variance[0])
+        mh = self.RelativeHumidity()
+        mh.header.stamp, mh.header.frame_id = stamp, self.frame_id
+        mh.relative_humidity = h / 100.0
+        mh.variance = float(self.errors['humidity'].variance[0]) / 1e4
+        return {'main': m, 'humidity': mh}

@@ -32,29 +32,23 @@ naming it; the source keeps what it played before; the world keeps running.
 """
 import math
 import threading
-import weakref
 
 import numpy as np
 
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
+from sim_world.plugins.device import Actuator
 from sim_world.plugins.sensor import Sensor
 
 __all__ = ['AudioScene', 'scene_of', 'Signal', 'FileSignal', 'ToneSignal', 'StreamSignal',
            'AudioSource', 'Microphone', 'read_sound', 'SPEED_OF_SOUND']
 
 SPEED_OF_SOUND = 343.0
-_SCENES = weakref.WeakKeyDictionary()
-_SCENES_LOCK = threading.Lock()
 
 
 def scene_of(world):
     """The world's audio scene (made on first use)."""
-    with _SCENES_LOCK:
-        s = _SCENES.get(world)
-        if s is None:
-            s = _SCENES[world] = AudioScene()
-        return s
+    return world.shared('audio_scene', lambda w: AudioScene())
 
 
 def read_sound(path):
@@ -222,10 +216,9 @@ class AudioScene(object):
 
 # -- plugins --------------------------------------------------------------------------------
 @register('libgazebo_ros_audio.so', 'libaudio.so', 'libgazebo_ros_speaker.so')
-class AudioSource(Sensor):
+class AudioSource(Actuator):
     DEFAULT_TOPIC = 'speaker/audio'
     DEFAULT_RATE = 100.0
-    MSG = None
     PARAMS = [
         Param('pitch', float, 1.0, unit='x', check='>0', doc='playback-rate factor'),
         Param('gain', float, 1.0, check='>=0', doc='amplitude at referenceDistance'),
@@ -243,8 +236,6 @@ class AudioSource(Sensor):
         self.scene = scene_of(self.world)
         self.track = _Track()
         self.gain = p.gain
-        self._lock = threading.Lock()
-        self._pending = []
         self.file_signal = None
         self.tone = ToneSignal(p.toneFrequency, p.toneAmplitude) if p.toneFrequency > 0 \
             else None
@@ -252,7 +243,7 @@ class AudioSource(Sensor):
         if p.soundFile:
             self.play_file(p.soundFile, p.startTime)
         self.scene.add(self)
-        self._record(getattr(self.world, 'sim_time', 0.0))
+        self._record(self.world.sim_time)
         if self.ros:
             from mobile_device_sim.msg import AudioData
             from std_msgs.msg import String
@@ -271,7 +262,7 @@ class AudioSource(Sensor):
         except ValueError as e:
             self.log_error('%s: %s; the source keeps its last sound' % (self.label, e))
             return False
-        t0 = getattr(self.world, 'sim_time', 0.0) if t0 is None else t0
+        t0 = self.world.sim_time if t0 is None else t0
         self.file_signal = FileSignal(x, sr, t0, self.p.pitch, self.p.loop)
         return True
 
@@ -280,7 +271,7 @@ class AudioSource(Sensor):
             self.log_error('%s: tone frequency must be > 0 Hz and amplitude >= 0, got %r, %r'
                            % (self.label, freq, amplitude))
             return False
-        t0 = getattr(self.world, 'sim_time', 0.0) if t0 is None else t0
+        t0 = self.world.sim_time if t0 is None else t0
         self.tone = ToneSignal(freq, amplitude, t0)
         return True
 
@@ -302,8 +293,7 @@ class AudioSource(Sensor):
             return False
         if channels > 1:
             x = x.reshape(-1, channels).mean(axis=1)
-        with self._lock:
-            self._pending.append((x, float(sample_rate)))
+        self.queue((x, float(sample_rate)))
         return True
 
     def _on_audio(self, m):
@@ -316,24 +306,21 @@ class AudioSource(Sensor):
         except Exception:   # noqa: BLE001 - a model being deleted
             pass
 
-    def update(self, sim_time):
-        with self._lock:
-            pending, self._pending = self._pending, []
-        for x, sr in pending:
+    def act(self, sim_time, commands):
+        for x, sr in commands:
             self.stream.push(x, sr, sim_time)
         self._record(sim_time)
         self.last_value = self.gain
 
     def shutdown(self):
         self.scene.remove(self)
-        Sensor.shutdown(self)
+        Actuator.shutdown(self)
 
 
 @register('libgazebo_ros_microphone.so', 'libmicrophone.so')
 class Microphone(Sensor):
     DEFAULT_TOPIC = 'microphone/audio'
     DEFAULT_RATE = 10.0
-    MSG = None
     PARAMS = [
         Param('sampleRate', int, 16000, aliases=('sample_rate',), unit='Hz', check='>0'),
         Param('gain', float, 1.0, check='>=0'),
@@ -346,13 +333,12 @@ class Microphone(Sensor):
     def setup(self):
         self.scene = scene_of(self.world)
         self.track = _Track()
-        self.t_last = getattr(self.world, 'sim_time', 0.0)
+        self.t_last = self.world.sim_time
+        self._t_from = self.t_last
         self.chunks = []            # (t_first_sample, samples) kept for tests (last 50)
-        self.pub = None
-        if self.ros:
-            from mobile_device_sim.msg import AudioData
-            self.AudioData = AudioData
-            self.pub = self._make_pub(self.topic, AudioData)
+        from mobile_device_sim.msg import AudioData
+        self.AudioData = AudioData
+        self.output('main', AudioData)
         self._record(self.t_last)
 
     def _record(self, t):
@@ -378,33 +364,38 @@ class Microphone(Sensor):
         x = self.scene.render(times, mic, self.p.referenceDistance, self.p.minDistance, excl)
         x = x * self.p.gain
         if self.p.noiseStddev > 0:
-            x = x + self.rng.normal(0.0, self.p.noiseStddev, len(x))
+            x = x + self.rng.normal(0.0, self.p.noiseStddev * self.noise_scale, len(x))
         return times[0], x
 
-    def update(self, sim_time):
+    def has_noise(self):
+        return self.p.noiseStddev > 0
+
+    def tick(self, sim_time, dt):
         if sim_time < self.t_last:               # world reset
             self.t_last = sim_time
             self.track = _Track()
         self._record(sim_time)
-        t_from, self.t_last = self.t_last, sim_time
-        if not self.subscribed():
-            return
-        t0, x = self.render(t_from, sim_time)
+        self._t_from, self.t_last = self.t_last, sim_time
+
+    def measure(self, state, dt):
+        """The chunk heard since the last tick: (time of its first sample, samples)."""
+        t0, x = self.render(self._t_from, state.t)
         if not len(x):
-            return
-        self.last_value = x
+            return None
         self.chunks.append((t0, x))
         del self.chunks[:-50]
-        if self.pub is not None and self.pub.wanted():
-            import rospy
-            m = self.AudioData()
-            m.header.stamp = rospy.Time.from_sec(t0)
-            m.header.frame_id = self.body
-            m.sample_rate = self.p.sampleRate
-            m.channels = 1
-            m.samples = x.astype(np.float32).tolist()
-            self.last_msg = m
-            self.pub.publish(m)
+        return t0, x
+
+    def to_msg(self, value, stamp):
+        import rospy
+        t0, x = value
+        m = self.AudioData()
+        m.header.stamp = rospy.Time.from_sec(t0)     # the sim time of the first sample
+        m.header.frame_id = self.body
+        m.sample_rate = self.p.sampleRate
+        m.channels = 1
+        m.samples = x.astype(np.float32).tolist()
+        return m
 
     def samples_since(self, t):
         """Concatenated samples of the kept chunks whose first sample is at or after t."""

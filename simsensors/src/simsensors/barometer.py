@@ -83,9 +83,8 @@ class Barometer(Sensor):
         from sensor_msgs.msg import FluidPressure
         from std_msgs.msg import Float64
         self.FluidPressure, self.Float64 = FluidPressure, Float64
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, FluidPressure)
-        self.alt_pub = self.advertise(self.p.altitudeTopicName, Float64) \
+        self.output('main', FluidPressure)
+        self.alt_pub = self.output('altitude', Float64, topic=self.p.altitudeTopicName) \
             if self.p.altitudeTopicName else None
         self.step_noise = StepNoise(self.p.stepMaximum, self.p.stepInterval, self.rng) \
             if self.p.noiseModel == 'step' else None
@@ -96,28 +95,34 @@ class Barometer(Sensor):
             return self.step_noise.variance
         return float(self.errors[''].variance[0])
 
-    def update(self, sim_time):
+    def has_noise(self):
         if self.step_noise is not None:
-            self.step_noise.step(self.timer.last_dt)
-        self._fresh = False
-        Sensor.update(self, sim_time)
-        if self.alt_pub is None or not self._fresh or self.fault == 'drop' or \
-                not (self.alt_pub.wanted() or self.force):
-            return
+            return self.step_noise.maximum > 0
+        return Sensor.has_noise(self)
+
+    def tick(self, sim_time, dt):
+        if self.step_noise is not None:
+            self.step_noise.step(dt)
+
+    def altitude(self, pressure):
+        """m above sea level of a measured pressure: the standard atmosphere's inverse (the
+        weather's offset shows as an altitude error, as on a real phone)."""
         env = self.env
-        # the standard atmosphere's inverse: the weather's offset shows as an altitude error,
-        # as on a real phone
-        h = altitude_from_pressure(self.last_value, env.get('sea_level_pressure'),
-                                   env.get('sea_level_temperature'),
-                                   env.get('temperature_gradient'))
-        self.last_altitude = h
-        self.alt_pub.publish(self.Float64(data=h))
+        return altitude_from_pressure(pressure, env.get('sea_level_pressure'),
+                                      env.get('sea_level_temperature'),
+                                      env.get('temperature_gradient'))
+
+    def messages(self, value, stamp):
+        out = {'main': lambda: self.to_msg(value, stamp)}
+        if self.alt_pub is not None:
+            self.last_altitude = self.altitude(value)
+            out['altitude'] = self.Float64(data=self.last_altitude)
+        return out
 
     def measure(self, state, dt):
-        self._fresh = True
         p = self.env.pressure_at(float(state.pose.p[2]))
         if self.step_noise is not None:
-            return p + self.step_noise.value
+            return p + self.step_noise.value * self.noise_scale
         return float(self.errors[''].apply(p))
 
     def to_msg(self, value, stamp):
@@ -128,7 +133,6 @@ class Barometer(Sensor):
         m.variance = self.variance
         return m
 
-    _fresh = False
     last_altitude = None
 
     def reset(self):

@@ -134,7 +134,7 @@ class Battery(Sensor):
     DEFAULT_TOPIC = 'battery_state'
     DEFAULT_RATE = 1.0            # thesis snippet 3.3.4: updateRate 1.0
     ALWAYS_MEASURE = True         # the charge integrates whoever listens
-    PUBLISH_EVERY_TICK = False
+    USES_POSE = False
     PARAMS = [
         Param('powerStateTopic', str, 'power_state', aliases=('power_state_topic',),
               doc='PowerState topic (pr2_msgs fields)'),
@@ -170,14 +170,12 @@ class Battery(Sensor):
         self.timer.rate = max(self.timer.rate, p.powerStateRate)
         if self.timer.rate > 0 and 0 in (self.bs_timer.rate, self.ps_timer.rate):
             self.timer.rate = 0.0    # one of them every step: so the timer
-        self.bs_pub = self.pub if self.pub is not None else self.advertise(self.topic,
-                                                                            BatteryState)
-        if self.pub is None:
-            self.pub = self.bs_pub
-        self.ps_pub = self.advertise(p.powerStateTopic, PowerState)
+        self.bs_pub = self.output('main', BatteryState)
+        self.ps_pub = self.output('power_state', PowerState, topic=p.powerStateTopic)
         self.model_b = BatteryModel(p.fullChargeCapacity, p.initialCharge * p.fullChargeCapacity,
                                     p.chargeRate, p.dischargeVoltage, p.chargeVoltage)
-        self._last_t = getattr(self.world, 'sim_time', 0.0)   # integrate from the spawn
+        self._last_t = self.world.sim_time   # integrate from the spawn
+        self._due = (False, False)
         self.subscribe(p.chargerTopic, Bool, lambda m: self.set_charger(m.data))
         self.subscribe('display/enable', Bool, lambda m: self._flag('display', bool(m.data)))
         self.subscribe('display/brightness', Float32, self._on_brightness)
@@ -185,7 +183,7 @@ class Battery(Sensor):
 
     # -- inputs ----------------------------------------------------------------------------
     def _flag(self, name, value):
-        self.world.power.set_flag(self.model.name, name, value)
+        self.power_flag(name, value)
 
     def set_charger(self, plugged):
         self._flag('charger', bool(plugged))
@@ -205,23 +203,21 @@ class Battery(Sensor):
         return self.p.dischargeRate + sum(comps.values()), comps
 
     # -- schedule ---------------------------------------------------------------------------
-    def update(self, sim_time):
-        t = sim_time
+    def measure(self, state, dt):
+        t = state.t
         dt = 0.0 if self._last_t is None else max(0.0, t - self._last_t)
         self._last_t = t
         total, self.components = self.load_now()
         charging = bool(self.world.power.flag(self.model.name, 'charger', False))
         self.model_b.step(dt, total, charging)
-        self.world.power.set_flag(self.model.name, 'battery_empty', self.model_b.charge <= 0)
-        self.last_value = (self.model_b.charge, total, charging)
-        stamp = None
-        if self.ps_timer.due(t) and (self.force or self.ps_pub.wanted()):
-            stamp = self.stamp()
-            self.ps_pub.publish(self.power_state_msg(stamp))
-        if self.bs_timer.due(t) and (self.force or self.bs_pub.wanted()):
-            stamp = stamp or self.stamp()
-            self.last_msg = self.battery_state_msg(stamp)
-            self.bs_pub.publish(self.last_msg)
+        self.power_flag('battery_empty', self.model_b.charge <= 0)
+        self._due = (self.ps_timer.due(t), self.bs_timer.due(t))   # both timers run on
+        return (self.model_b.charge, total, charging)
+
+    def messages(self, value, stamp):
+        ps, bs = self._due
+        return {'power_state': (lambda: self.power_state_msg(stamp)) if ps else None,
+                'main': (lambda: self.battery_state_msg(stamp)) if bs else None}
 
     def power_state_msg(self, stamp):
         import rospy
@@ -264,7 +260,7 @@ class Battery(Sensor):
 
     def reset(self):
         Sensor.reset(self)
-        now = getattr(self.world, 'sim_time', 0.0)
+        now = self.world.sim_time
         self.bs_timer.reset(now)
         self.ps_timer.reset(now)
         self._last_t = now

@@ -21,7 +21,7 @@ from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
 
 from . import radio_budget as rb
-from .wifi import TransmitterPlugin, transmitters
+from .wifi import TransmitterPlugin
 
 __all__ = ['BluetoothDevice', 'BluetoothAdapter', 'bt_state']
 
@@ -64,7 +64,6 @@ class BluetoothAdapter(Sensor):
     DEFAULT_TOPIC = None
     DEFAULT_RATE = 1.0
     ALWAYS_MEASURE = True
-    PUBLISH_EVERY_TICK = False
     PARAMS = [
         Param('enabled', bool, True, doc='adapter on at start'),
         Param('power', float, 0.05, unit='W', check='>=0', doc='draw while on'),
@@ -83,35 +82,42 @@ class BluetoothAdapter(Sensor):
         self._set_power()
 
     def _set_power(self):
-        bus = getattr(self.world, 'power', None)
-        if bus is not None:
-            bus.set_flag(self.model.name, 'bluetooth', self.enabled)
+        self.power_flag('bluetooth', self.enabled)
         self.power('bluetooth', self.p.power if self.enabled else 0.0)
 
     def _entry(self, tx):
+        """The outputs of one device (declared when the adapter first sees it): its reading
+        and its state (latched, on change)."""
         e = self.devices.get(tx.id)
         if e is None:
             base = 'bluetooth/%s/' % tx.id
             e = dict(state=None, value=None,
-                     data_pub=self.advertise(base + tx.extra.get('quantity', 'data'),
-                                             self.Float64),
-                     state_pub=self.advertise(base + 'state', self.String, latch=True))
+                     data_pub=self.output(base + tx.extra.get('quantity', 'data'),
+                                          self.Float64),
+                     state_pub=self.output(base + 'state', self.String, latch=True,
+                                           noisy=False, on_change=True))
             self.devices[tx.id] = e
         return e
 
     def measure(self, state, dt):
         pos = state.body_pose.p
         out = {}
-        for tx in transmitters(self.world, 'bluetooth'):
+        for tx in self.world.transmitters('bluetooth'):
             d = float(np.linalg.norm(np.asarray(tx.position(), float) - pos))
             st = bt_state(self.enabled, d, tx.extra.get('range', 10.0))
             e = self._entry(tx)
-            if st != e['state']:
-                e['state'] = st
-                e['state_pub'].publish(self.String(data=st))
-            value = getattr(tx.owner, 'value', None)
+            e['state'] = st
+            value = tx.owner.value
             if st == 'connected' and value is not None:
                 e['value'] = value
-                e['data_pub'].publish(self.Float64(data=value))
             out[tx.id] = (st, value if st == 'connected' else None)
         return out
+
+    def messages(self, value, stamp):
+        msgs = []
+        for tx_id, (st, v) in value.items():
+            e = self.devices[tx_id]
+            msgs.append((e['state_pub'].key, self.String(data=st)))
+            if v is not None:
+                msgs.append((e['data_pub'].key, self.Float64(data=v)))
+        return msgs

@@ -56,7 +56,7 @@ class CellularReceiver(RadioReceiver):
     def setup(self):
         from mobile_device_sim.msg import CellSignal
         self.CellSignal = CellSignal
-        self.pub = self._make_pub(self.topic, CellSignal)
+        self.output('main', CellSignal)
         self.serving = None
         RadioReceiver.setup(self)
 

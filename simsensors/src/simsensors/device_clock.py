@@ -39,8 +39,7 @@ class DeviceClock(Sensor):
     def setup(self):
         from sensor_msgs.msg import TimeReference
         self.TimeReference = TimeReference
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, TimeReference)
+        self.output('main', TimeReference)
         self.source = self.p.source or self.spec.name or 'device_clock'
         self._anchor = (0.0, float(self.p.offset))
         if self.p.serviceName:

@@ -12,26 +12,22 @@ time) and handed to the physics engine as a persistent wrench (``apply_wrench`` 
 infinite components): one error line naming it; the last good wrench stays.
 """
 import math
-import threading
 
 import numpy as np
 
 from sim_world.plugins import register
-from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.device import Actuator
 
 __all__ = ['ForceController']
 
 
 @register('libgazebo_ros_force.so', 'libros_force.so')
-class ForceController(Sensor):
+class ForceController(Actuator):
     DEFAULT_TOPIC = 'force'
     DEFAULT_RATE = 100.0
-    MSG = None
 
     def setup(self):
         from geometry_msgs.msg import Wrench
-        self._lock = threading.Lock()
-        self._pending = None
         self.wrench = (np.zeros(3), np.zeros(3))
         self.key = ('force', self.spec.name or self.spec.filename)
         self.subscribe(self.topic, Wrench, self._on_msg)
@@ -50,34 +46,25 @@ class ForceController(Sensor):
             self.log_error('%s: wrench on %s must be finite numbers, got force %r torque %r; '
                            'the last good wrench stays' % (self.label, self.topic, force, torque))
             return False
-        with self._lock:
-            self._pending = (f, t)
+        self.queue((f, t))
         return True
 
-    def update(self, sim_time):
-        with self._lock:
-            w, self._pending = self._pending, None
-        if w is None:
+    def act(self, sim_time, commands):
+        if not commands:
             return
+        w = commands[-1]                 # the last message of the tick wins
         self.wrench = w
         self.last_value = w
-        physics = self.world.physics
         if np.any(w[0]) or np.any(w[1]):
-            physics.apply_wrench(self.model.name, w[0], w[1], steps=None, key=self.key)
+            self.world.apply_wrench(self.model.name, w[0], w[1], steps=None, key=self.key)
         else:
-            physics.clear_wrench(self.model.name, self.key)
+            self.world.clear_wrench(self.model.name, self.key)
 
     def reset(self):
-        Sensor.reset(self)
+        Actuator.reset(self)
         self.wrench = (np.zeros(3), np.zeros(3))
-        try:
-            self.world.physics.clear_wrench(self.model.name, self.key)
-        except (KeyError, AttributeError):
-            pass
+        self.world.clear_wrench(self.model.name, self.key)
 
     def shutdown(self):
-        try:
-            self.world.physics.clear_wrench(self.model.name, self.key)
-        except (KeyError, AttributeError):
-            pass
-        Sensor.shutdown(self)
+        self.world.clear_wrench(self.model.name, self.key)
+        Actuator.shutdown(self)

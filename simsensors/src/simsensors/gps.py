@@ -90,7 +90,7 @@ class Gps(Sensor):
     DEFAULT_TOPIC = 'fix'
     DEFAULT_RATE = 1.0
     ALWAYS_MEASURE = True          # time to first fix: history, whoever listens
-    PUBLISH_EVERY_TICK = True
+    FAULTS_OWN = (FAULT_NO_FIX,)
     ERRORS = {
         # a phone's GNSS: a few metres horizontal, slowly wandering (Gauss-Markov drift with
         # a 5 min correlation time), plus sample noise; vertical about 1.5 times worse
@@ -135,11 +135,10 @@ class Gps(Sensor):
         from std_msgs.msg import String
         self.NavSatFix, self.NavSatStatus, self.Vector3Stamped, self.String = \
             NavSatFix, NavSatStatus, Vector3Stamped, String
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, NavSatFix)
         p = self.p
-        self.vel_pub = self.advertise(p.velocityTopicName, Vector3Stamped)
-        self.nmea_pub = self.advertise(p.nmeaTopicName, String)
+        self.output('main', NavSatFix)
+        self.vel_pub = self.output('fix_velocity', Vector3Stamped, topic=p.velocityTopicName)
+        self.nmea_pub = self.output('nmea_sentence', String, topic=p.nmeaTopicName)
         self.origin_env = None     # own origin (LatLon / reference*): a private Environment
         self.origin_point = np.zeros(3)
         lat0 = lon0 = None
@@ -163,13 +162,12 @@ class Gps(Sensor):
         self._reset_receiver()
 
     def _reset_receiver(self):
-        t = getattr(self.world, 'sim_time', 0.0)
+        t = self.world.sim_time
         self.has_fix = False
         self.lost_at = t if self.p.initialFix else None
         self.acquire_start = None
         self.ttff = None
         self._first = bool(self.p.initialFix)
-        self._fresh = False
 
     # -- what the receiver sees ------------------------------------------------------------------
     def sky_visible(self, p):
@@ -216,7 +214,6 @@ class Gps(Sensor):
     def measure(self, state, dt):
         p = np.asarray(state.pose.p, float)
         self._receiver(state.t, self.sky_visible(p))
-        self._fresh = True
         if not self.has_fix:
             return (state.t, False, (math.nan,) * 3, np.zeros(3))
         env = self._env()
@@ -249,33 +246,23 @@ class Gps(Sensor):
             m.position_covariance_type = self.NavSatFix.COVARIANCE_TYPE_UNKNOWN
         return m
 
-    def update(self, sim_time):
-        self._fresh = False
-        Sensor.update(self, sim_time)
-        if not self._fresh or self.fault == 'drop' or self.last_value is None:
-            return
-        t, fix, (lat, lon, alt), enu = self.last_value
-        stamp = None
-        if fix and (self.vel_pub.wanted() or self.force):
-            stamp = self.stamp()
+    def messages(self, value, stamp):
+        t, fix, (lat, lon, alt), enu = value
+        out = {'main': lambda: self.to_msg(value, stamp)}
+        if fix:
             v = self.Vector3Stamped()
             v.header.stamp = stamp
             v.header.frame_id = self.frame_id
             v.vector.x, v.vector.y, v.vector.z = (float(x) for x in enu)
-            self.vel_pub.publish(v)
-        if self.nmea_pub.wanted() or self.force:
+            out['fix_velocity'] = v
+
+        def nmea():
             speed = float(math.hypot(enu[0], enu[1]))
             course = math.degrees(math.atan2(enu[0], enu[1])) % 360.0 if speed > 0.05 else 0.0
-            for s in nmea_sentences(self.p.utcEpoch + t, lat, lon, alt, fix, speed, course,
-                                    self.p.satellites):
-                self.nmea_pub.publish(self.String(data=s))
-
-    # -- faults and reset ---------------------------------------------------------------------
-    def extra_faults(self):
-        return (FAULT_NO_FIX,)
-
-    def on_fault(self, fault, value):
-        return fault == FAULT_NO_FIX
+            return [self.String(data=s) for s in nmea_sentences(
+                self.p.utcEpoch + t, lat, lon, alt, fix, speed, course, self.p.satellites)]
+        out['nmea_sentence'] = nmea
+        return out
 
     def reset(self):
         Sensor.reset(self)

@@ -55,8 +55,7 @@ class ImuPlugin(Sensor):
     def setup(self):
         from sensor_msgs.msg import Imu
         self.Imu = Imu
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, Imu)
+        self.output('main', Imu)
         p = self.p
         acc, rate = self.errors['accel'], self.errors['rate']
         if p.gaussianNoise is not None:              # 2011: one sigma for both

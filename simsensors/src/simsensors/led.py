@@ -20,12 +20,11 @@ Bad input (unknown colour name, negative on_ms/off_ms): one error line naming it
 keeps its last good state.
 """
 import math
-import threading
 from collections import deque
 
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
-from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.device import Actuator
 
 __all__ = ['Led', 'LedPattern', 'parse_color', 'argb_rgb', 'ANDROID_COLORS']
 
@@ -88,10 +87,9 @@ class LedPattern(object):
 
 
 @register('libgazebo_ros_led.so', 'libled.so')
-class Led(Sensor):
+class Led(Actuator):
     DEFAULT_TOPIC = 'led'
     DEFAULT_RATE = 100.0
-    MSG = None
     PARAMS = [
         Param('power', float, 0.02, unit='W', check='>=0', doc='draw while lit'),
         Param('stateTopicName', str, 'led/state', aliases=('state_topic',),
@@ -107,13 +105,11 @@ class Led(Sensor):
         p = self.p
         if p.bodyName is None and self.spec.link is None and 'mobile_led' in self.model.links:
             self.body = 'mobile_led'
-        self._lock = threading.Lock()
-        self._pending = None
         self.pattern = LedPattern()
-        self.t0 = getattr(self.world, 'sim_time', 0.0)
+        self.t0 = self.world.sim_time
         self.shown = None
         self.transitions = deque(maxlen=1000)       # (t, rgb or None)
-        self.state_pub = self.advertise(p.stateTopicName, ColorRGBA, latch=True)
+        self.state_pub = self.output('state', ColorRGBA, topic=p.stateTopicName, latch=True)
         if p.color:
             self.command(color=p.color, on_ms=p.onMs or 1, off_ms=p.offMs)
         from mobile_device_sim.msg import LedCommand
@@ -132,16 +128,13 @@ class Led(Sensor):
             self.log_error('%s: led command: %s; the LED keeps its last state'
                            % (self.label, e))
             return False
-        with self._lock:
-            self._pending = pat
+        self.queue(pat)
         return True
 
     # -- schedule ------------------------------------------------------------------------------
-    def update(self, sim_time):
-        with self._lock:
-            pat, self._pending = self._pending, None
-        if pat is not None:
-            self.pattern, self.t0 = pat, sim_time
+    def act(self, sim_time, commands):
+        if commands:                     # the last command of the tick wins
+            self.pattern, self.t0 = commands[-1], sim_time
         rgb = self.pattern.color_at(sim_time - self.t0)
         self.last_value = rgb
         if rgb != self.shown or not self.transitions:
@@ -150,26 +143,17 @@ class Led(Sensor):
     def _show(self, rgb, t):
         self.shown = rgb
         self.transitions.append((t, rgb))
-        self._paint(getattr(self.world, '_renderer', None))
+        self.paint_link(rgb)
         self.power('led', self.p.power if rgb is not None else 0.0)
         m = self.ColorRGBA()
         if rgb is not None:
             m.r, m.g, m.b, m.a = rgb[0], rgb[1], rgb[2], 1.0
         self.last_msg = m
-        self.state_pub.publish(m)
-
-    def _paint(self, renderer):
-        if renderer is None:
-            return
-        try:
-            renderer.set_link_color(self.model.name, self.body,
-                                    None if self.shown is None else self.shown, lit=False)
-        except KeyError:
-            pass                       # a link without a visual: only state and power
+        self.emit('state', m)
 
     def renderer_created(self, renderer):
-        self._paint(renderer)
+        self.paint_link(self.shown)
 
     def reset(self):
-        Sensor.reset(self)
-        self.t0 = getattr(self.world, 'sim_time', 0.0)
+        Actuator.reset(self)
+        self.t0 = self.world.sim_time

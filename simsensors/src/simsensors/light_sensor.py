@@ -41,7 +41,6 @@ asks for nothing beyond reporting lux; the default is a 1 % relative jitter
 (``scaleGaussianNoise`` 0.01; ``gaussianNoise``, ``offset`` ... are in lux) and a
 quantisation (``quantization``) of 1 lux. Default 5 Hz.
 """
-import logging
 import math
 
 import numpy as np
@@ -51,8 +50,6 @@ from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
 
 __all__ = ['LightSensor', 'luminance', 'SKY_COLOR']
-
-log = logging.getLogger('simsensors.light_sensor')
 
 REC709 = np.array([0.2126, 0.7152, 0.0722])
 SKY_COLOR = np.array([0.75, 0.85, 1.0])
@@ -96,21 +93,15 @@ class LightSensor(Sensor):
         from sensor_msgs.msg import Illuminance
         from std_msgs.msg import ColorRGBA
         self.Illuminance, self.ColorRGBA = Illuminance, ColorRGBA
-        self.pub = self._make_pub(self.topic, Illuminance)
-        self.color_pub = self.advertise(self.p.colorTopicName, ColorRGBA)
-        self._warned = False
+        self.output('main', Illuminance)
+        # the colour composition carries no noise: a noise fault leaves it as it is
+        self.color_pub = self.output('color', ColorRGBA, topic=self.p.colorTopicName,
+                                     noisy=False)
 
     # -- geometry ---------------------------------------------------------------------------------
     def _blocked(self, origin, direction, dist):
-        raycast = getattr(self.world, 'raycast', None)
-        if raycast is None:
-            if not self._warned:
-                self._warned = True
-                (getattr(self.world, 'log', None) or log).warning(
-                    '%s: the world has no ray caster (sim_world.raycast); lights are not '
-                    'occluded' % self.label)
-            return False
-        return raycast(origin, direction, dist, ignore=(self.model.name,)) is not None
+        return self.world.raycast(origin, direction, dist,
+                                  ignore=(self.model.name,)) is not None
 
     def contributions(self, p, n, rot):
         """[(lux, rgb, name)] of everything lighting the face at world point p with normal n;
@@ -119,7 +110,7 @@ class LightSensor(Sensor):
         env = self.env
         origin = p + n * 1e-4
         daylight = float(env.get('daylight') or 0.0)
-        inside, _, in_margin = env.indoor(p) if hasattr(env, 'indoor') else (False, None, False)
+        inside, _, in_margin = env.indoor(p)
         day = daylight if not inside else (daylight * self.p.openingFactor if in_margin else 0.0)
         suns = [lt for lt in self.world.lights if lt.kind == 'directional']
         if day > 0 and suns:
@@ -162,7 +153,7 @@ class LightSensor(Sensor):
                 continue
             intensity = self.p.candelaPerUnit * max(luminance(lt.diffuse), 0.0) * cone
             out.append((intensity * c / max(r * r, 1e-4), _unit_color(lt.diffuse), lt.name))
-        amb = np.asarray(getattr(self.world, 'ambient', (0, 0, 0)), float)[:3]
+        amb = np.asarray(self.world.ambient, float)[:3]
         amb_lux = self.p.ambientLux * luminance(amb)
         if amb_lux > 0:
             free = sum(0 if self._blocked(origin, rot(dv), self.p.occlusionDistance) else 1
@@ -184,15 +175,12 @@ class LightSensor(Sensor):
         noisy = max(0.0, float(self.errors[''].apply(np.array([lux * (1.0 + jitter)]))[0]))
         return noisy, color, lux
 
-    def update(self, sim_time):
-        Sensor.update(self, sim_time)
-        if self.last_value is None or not (self.force or self.color_pub.wanted()):
-            return
-        _, color, lux = self.last_value
+    def messages(self, value, stamp):
+        _, color, lux = value
         m = self.ColorRGBA()
         m.r, m.g, m.b = (float(x) for x in color)
         m.a = 1.0 if lux > 0 else 0.0
-        self.color_pub.publish(m)
+        return {'main': lambda: self.to_msg(value, stamp), 'color': m}
 
     def to_msg(self, value, stamp):
         lux = value[0]

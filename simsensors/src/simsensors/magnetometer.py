@@ -43,6 +43,7 @@ def field_vector(magnitude, inclination_deg, declination_deg, north_alpha_deg):
 class Magnetometer(Sensor):
     DEFAULT_TOPIC = 'magnetic'
     DEFAULT_RATE = 50.0
+    _field = None                  # (environment, world-frame field) cached
     ERRORS = {'': dict(dims=3, gaussian_noise=CDD_SIGMA)}
     PARAMS = [
         Param('magnitude', float, None, unit='T', check=(0.0, 1e-2),
@@ -60,8 +61,7 @@ class Magnetometer(Sensor):
     def setup(self):
         from sensor_msgs.msg import MagneticField
         self.MagneticField = MagneticField
-        if self.pub is None:
-            self.pub = self._make_pub(self.topic, MagneticField)
+        self.output('main', MagneticField)
         p = self.p
         self.own = any(v is not None for v in (p.magnitude, p.declination, p.inclination,
                                                 p.referenceHeading))
@@ -69,7 +69,7 @@ class Magnetometer(Sensor):
     def field_world(self):
         """The world-frame field (T), recomputed only when the environment changes."""
         env = self.env
-        cached = getattr(self, '_field', None)
+        cached = self._field
         if cached is not None and cached[0] is env:
             return cached[1]
         if self._forget not in env.on_change:

@@ -26,7 +26,6 @@ The proxy is in the world process (``NfcProxy``, one per world; the thesis's "pr
 it is evaluated once per sim time at the devices' ``updateRate`` (10 Hz of sim time), from the
 link poses, so connections follow the simulation exactly and repeat with the same seed.
 """
-import logging
 import math
 
 import numpy as np
@@ -37,7 +36,6 @@ from sim_world.plugins.sensor import Sensor
 
 __all__ = ['NfcDevice', 'NfcTag', 'NfcProxy', 'proxy_of', 'sees', 'AXES']
 
-log = logging.getLogger('simsensors.nfc')
 
 AXES = {'+x': (1.0, 0.0, 0.0), '-x': (-1.0, 0.0, 0.0), '+z': (0.0, 0.0, 1.0),
         '-z': (0.0, 0.0, -1.0)}
@@ -145,17 +143,15 @@ class NfcProxy(object):
 
 
 def proxy_of(world):
-    p = getattr(world, '_nfc_proxy', None)
-    if p is None or p.world is not world:
-        p = NfcProxy(world)
-        world._nfc_proxy = p
-    return p
+    """The world's NFC proxy (one per world, made on first use)."""
+    return world.shared('nfc_proxy', NfcProxy)
 
 
 class _NfcBase(Sensor):
     DEFAULT_RATE = 10.0
     ALWAYS_MEASURE = True
-    PUBLISH_EVERY_TICK = False
+    proxy = None
+    name = mode = '?'
     COMMON = [
         Param('range', float, 0.04, aliases=('maxRange', 'max_range'), unit='m',
               check=_range_ok, check_text='> 0 and <= 0.10', doc='maximum distance to a partner (at most 0.10 m)'),
@@ -185,13 +181,12 @@ class _NfcBase(Sensor):
         pass
 
     def shutdown(self):
-        proxy = getattr(self, 'proxy', None)
-        if proxy is not None:
-            proxy.remove(self)
+        if self.proxy is not None:
+            self.proxy.remove(self)
         Sensor.shutdown(self)
 
     def __repr__(self):
-        return '<NFC %s %s>' % (getattr(self, 'name', '?'), getattr(self, 'mode', '?'))
+        return '<NFC %s %s>' % (self.name, self.mode)
 
 
 @register('libgazebo_ros_nfc.so', 'libnfc.so')
@@ -211,8 +206,11 @@ class NfcDevice(_NfcBase):
         self.mode = self.p.mode
         self.name = self.p.name or self.namespace or self.model.name
         self.data = self.p.data
-        self.pub = self._make_pub(self.topic, NfcNotification)
-        self.incoming_pub = self.advertise(self.p.incomingTopicName, NfcIncoming)
+        # events between ticks (the proxy connects and delivers): through the gate
+        self.output('main', NfcNotification, event=True, noisy=False)
+        self.incoming_pub = self.output('incoming', NfcIncoming,
+                                        topic=self.p.incomingTopicName, event=True,
+                                        noisy=False)
         self.subscribe(self.p.outgoingTopicName, NfcOutgoing, self.on_outgoing)
         self.notifications = []       # (sim time, name, type, status)
         self.received = []            # (sim time, sender, data)
@@ -221,12 +219,11 @@ class NfcDevice(_NfcBase):
     def notify(self, partner, status):
         m = self.NfcNotification(name=partner.name, type=partner.mode, status=status)
         self.notifications.append((self.world.sim_time, partner.name, partner.mode, status))
-        self.last_msg = m
-        self.pub.publish(m)
+        self.emit('main', m)
 
     def receive(self, sender, data):
         self.received.append((self.world.sim_time, sender.name, data))
-        self.incoming_pub.publish(self.NfcIncoming(sender=sender.name, data=data))
+        self.emit('incoming', self.NfcIncoming(sender=sender.name, data=data))
 
     def on_outgoing(self, msg):
         """nfc/outgoing: deliver to the connected partner; else one warning line."""
@@ -234,8 +231,7 @@ class NfcDevice(_NfcBase):
             try:
                 return self.proxy.send(self, msg.receiver.strip(), msg.data)
             except LookupError as e:
-                (getattr(self.world, 'log', None) or log).warning(
-                    '%s: nfc/outgoing not delivered: %s' % (self.label, e))
+                self.world.log.warning('%s: nfc/outgoing not delivered: %s', self.label, e)
                 return None
 
 
@@ -265,6 +261,6 @@ class NfcTag(_NfcBase):
         self.data = data
 
     def measure(self, state, dt):
-        if getattr(self, 'proxy', None) is not None:
+        if self.proxy is not None:
             self.proxy.update(state.t)
         return None

@@ -17,13 +17,12 @@ Bad input (unreadable texture file, unsupported encoding, wrong data size): one 
 naming it; the projector keeps its last good picture; the world keeps running.
 """
 import math
-import threading
 
 import numpy as np
 
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
-from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.device import Actuator
 from sim_world.transforms import Pose
 
 __all__ = ['Projector', 'image_from_msg', 'pixel_ray', 'pixel_on_plane', 'world_to_pixel']
@@ -93,10 +92,9 @@ def _read_image(path):
 
 
 @register('libgazebo_ros_projector.so', 'libprojector.so')
-class Projector(Sensor):
+class Projector(Actuator):
     DEFAULT_TOPIC = 'projector/image'
     DEFAULT_RATE = 15.0
-    MSG = None
     PARAMS = [
         Param('textureName', str, '', doc='image file projected at start'),
         Param('filterTextureName', str, '', doc='grey mask multiplied into the picture'),
@@ -112,8 +110,6 @@ class Projector(Sensor):
 
     def setup(self):
         p = self.p
-        self._lock = threading.Lock()
-        self._pending = []           # ('image', rgb) | ('enable', bool)
         self.image = None
         self.enabled = bool(p.alwaysOn)
         self.filter = None
@@ -156,19 +152,15 @@ class Projector(Sensor):
             import cv2
             m = cv2.resize(self.filter, (rgb.shape[1], rgb.shape[0]))
             rgb = (rgb * m[:, :, None]).astype(np.uint8)
-        with self._lock:
-            self._pending.append(('image', rgb))
+        self.queue(('image', rgb))
         return True
 
     def enable(self, on):
-        with self._lock:
-            self._pending.append(('enable', bool(on)))
+        self.queue(('enable', bool(on)))
 
     # -- schedule ----------------------------------------------------------------------------
-    def update(self, sim_time):
-        with self._lock:
-            pending, self._pending = self._pending, []
-        for kind, v in pending:
+    def act(self, sim_time, commands):
+        for kind, v in commands:       # ('image', rgb) | ('enable', bool), in order
             if kind == 'image':
                 self.image = v
             else:
@@ -178,27 +170,23 @@ class Projector(Sensor):
         self.power('projector', self.p.power if on else 0.0)
         key = (on, id(self.image))
         if key != self.shown:
-            self._paint(getattr(self.world, '_renderer', None))
+            self._paint()
 
-    def _paint(self, renderer):
-        if renderer is None:
-            return
+    def _paint(self):
         on = self.enabled and self.image is not None
+        image = self.image if on else None
         try:
-            renderer.set_projector((self.model.name, self.spec.name), self.model.name,
-                                   self.body, self.p.fov, self.p.nearClipDist,
-                                   self.p.farClipDist, self.image if on else None,
-                                   self.p.brightness)
-            self.shown = (on, id(self.image))
+            if self.paint(lambda r: r.set_projector(
+                    (self.model.name, self.spec.name), self.model.name, self.body, self.p.fov,
+                    self.p.nearClipDist, self.p.farClipDist, image, self.p.brightness)):
+                self.shown = (on, id(self.image))
         except Exception as e:  # noqa: BLE001
             self.log_error('%s: cannot project: %s' % (self.label, e))
 
     def renderer_created(self, renderer):
-        self._paint(renderer)
+        self._paint()
 
     def shutdown(self):
-        r = getattr(self.world, '_renderer', None)
-        if r is not None and hasattr(r, 'remove_projector'):
-            r.remove_projector((self.model.name, self.spec.name))
+        self.paint(lambda r: r.remove_projector((self.model.name, self.spec.name)))
         self.power('projector', 0.0)
-        Sensor.shutdown(self)
+        Actuator.shutdown(self)

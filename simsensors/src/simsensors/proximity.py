@@ -20,8 +20,6 @@ Android's ``SensorEvent.values[0]`` is in cm: multiply ``range`` by 100.
 Published on change, and repeated every ``repeatPeriod`` s of sim time (default 1 s) while
 nothing changes; the sensor samples at ``updateRate`` (default 10 Hz of sim time).
 """
-import logging
-
 import numpy as np
 
 from sim_world.plugins import register
@@ -29,8 +27,6 @@ from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
 
 __all__ = ['Proximity', 'proximity_value']
-
-log = logging.getLogger('simsensors.proximity')
 
 
 def proximity_value(distance, mode='binary', max_range=0.05, min_range=0.0, near_value=0.0):
@@ -46,8 +42,6 @@ def proximity_value(distance, mode='binary', max_range=0.05, min_range=0.0, near
 class Proximity(Sensor):
     DEFAULT_TOPIC = 'proximity'
     DEFAULT_RATE = 10.0
-    PUBLISH_EVERY_TICK = False
-    ALWAYS_MEASURE = False
     ERRORS = {'': dict(dims=1)}
     PARAMS = [
         Param('mode', ('binary', 'distance'), 'binary'),
@@ -66,7 +60,8 @@ class Proximity(Sensor):
     def setup(self):
         from sensor_msgs.msg import Range
         self.Range = Range
-        self.pub = self._make_pub(self.topic, Range)
+        # published on change, and again every repeatPeriod s while nothing changes
+        self.output('main', Range, on_change=True, repeat=self.p.repeatPeriod)
         d = np.asarray(self.p.direction, float)
         n = np.linalg.norm(d)
         if not n > 1e-9:
@@ -78,25 +73,13 @@ class Proximity(Sensor):
             self.log_error('%s: minRange must be below maxRange (%g), got %g; using 0'
                            % (self.label, self.p.maxRange, self.p.minRange))
             self.p.minRange = 0.0
-        self._published = None        # (value, sim time) last published
         self.hit = None
-
-    def _no_raycast(self):
-        if not getattr(self, '_warned', False):
-            self._warned = True
-            (getattr(self.world, 'log', None) or log).warning(
-                '%s: the world has no ray caster (sim_world.raycast); the sensor reports far'
-                % self.label)
 
     def cast(self, state):
         """Distance (m) to the first thing along the ray, or None."""
-        raycast = getattr(self.world, 'raycast', None)
-        if raycast is None:
-            self._no_raycast()
-            return None
         origin = state.body_pose.p
         direction = state.body_pose.rotate(self.direction)
-        self.hit = raycast(origin, direction, self.p.maxRange * 4 + 0.1,
+        self.hit = self.world.raycast(origin, direction, self.p.maxRange * 4 + 0.1,
                            ignore=(self.model.name,))
         return None if self.hit is None else float(self.hit.distance)
 
@@ -106,19 +89,6 @@ class Proximity(Sensor):
         if p.mode == 'distance' and d is not None and d <= p.maxRange:
             d = float(self.errors[''].apply(np.array([d]))[0])
         return proximity_value(d, p.mode, p.maxRange, p.minRange, p.nearValue)
-
-    def update(self, sim_time):
-        Sensor.update(self, sim_time)
-        value = self.last_value
-        if value is None or not (self.force or self.pub.wanted()):
-            return
-        last = self._published
-        if last is not None and last[0] == value and (
-                self.p.repeatPeriod <= 0 or sim_time - last[1] < self.p.repeatPeriod - 1e-9):
-            return
-        self._published = (value, sim_time)
-        self.last_msg = self.to_msg(value, self.stamp())
-        self.pub.publish(self.last_msg)
 
     def to_msg(self, value, stamp):
         m = self.Range()
@@ -130,7 +100,3 @@ class Proximity(Sensor):
         m.max_range = self.p.maxRange
         m.range = value
         return m
-
-    def reset(self):
-        Sensor.reset(self)
-        self._published = None

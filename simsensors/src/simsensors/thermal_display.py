@@ -19,13 +19,12 @@ Bad input (NaN, infinite, or outside ``minTemperature``..``maxTemperature``, def
 0..60 degC): one error line naming it; the display keeps its last target.
 """
 import math
-import threading
 
 import numpy as np
 
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
-from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.device import Actuator
 
 __all__ = ['ThermalDisplay', 'thermal_color', 'first_order']
 
@@ -54,11 +53,9 @@ def thermal_color(temp, neutral_rgb, neutral=33.0, hot=43.0, cold=23.0):
 
 
 @register('libgazebo_ros_thermal_display.so', 'libthermal_display.so')
-class ThermalDisplay(Sensor):
+class ThermalDisplay(Actuator):
     DEFAULT_TOPIC = 'thermal_display/temperature'
     DEFAULT_RATE = 10.0
-    ALWAYS_MEASURE = True
-    MSG = None
     PARAMS = [
         Param('timeConstant', float, 3.0, aliases=('time_constant', 'tau'), unit='s',
               check='>=0', doc='first-order lag of the back temperature'),
@@ -87,11 +84,9 @@ class ThermalDisplay(Sensor):
         for v in self.model.links[self.body].visuals:
             self.neutral_rgb = tuple(v.material.rgba[:3])
             break
-        self._lock = threading.Lock()
-        self._pending = None
         self.temperature = self.target = p.neutralTemperature
-        self._last_t = getattr(self.world, 'sim_time', 0.0)
-        self.pub = self.advertise(p.stateTopicName, Temperature)
+        self._last_t = self.world.sim_time
+        self.output('main', Temperature, topic=p.stateTopicName)
         self.subscribe(self.topic, Float64, lambda m: self.command(m.data))
 
     def command(self, degc):
@@ -108,8 +103,7 @@ class ThermalDisplay(Sensor):
                            % (self.label, p.minTemperature, p.maxTemperature, degc,
                               self.target))
             return False
-        with self._lock:
-            self._pending = t
+        self.queue(t)
         return True
 
     def color(self):
@@ -117,27 +111,18 @@ class ThermalDisplay(Sensor):
         return thermal_color(self.temperature, self.neutral_rgb, p.neutralTemperature,
                              p.hotTemperature, p.coldTemperature)
 
-    def measure(self, state, dt):
-        t = state.t
-        with self._lock:
-            pending, self._pending = self._pending, None
+    def act(self, t, commands):
         step = max(0.0, t - self._last_t)
         self._last_t = t
         self.temperature = first_order(self.temperature, self.target, step,
                                        self.p.timeConstant)
-        if pending is not None:
-            self.target = pending
-        self._paint(getattr(self.world, '_renderer', None))
+        if commands:                     # the last command of the tick wins
+            self.target = commands[-1]
+        self.paint_link(self.color())
         self.power('thermal_display', self.p.powerPerKelvin
                    * abs(self.temperature - self.p.neutralTemperature))
-        return self.temperature
-
-    def state(self, t=None):          # no link state needed: sim time only
-        class S(object):
-            pass
-        s = S()
-        s.t = self.world.sim_time if t is None else t
-        return s
+        self.last_value = temp = self.temperature
+        self.emit('main', lambda: self.to_msg(temp, self.stamp()))
 
     def to_msg(self, value, stamp):
         m = self.Temperature()
@@ -147,18 +132,10 @@ class ThermalDisplay(Sensor):
         m.variance = 0.0
         return m
 
-    def _paint(self, renderer):
-        if renderer is None:
-            return
-        try:
-            renderer.set_link_color(self.model.name, self.body, self.color(), lit=False)
-        except KeyError:
-            pass                       # a link without a visual: state and power only
-
     def renderer_created(self, renderer):
-        self._paint(renderer)
+        self.paint_link(self.color())
 
     def reset(self):
-        Sensor.reset(self)
+        Actuator.reset(self)
         self.temperature = self.target = self.p.neutralTemperature
-        self._last_t = getattr(self.world, 'sim_time', 0.0)
+        self._last_t = self.world.sim_time

@@ -4,7 +4,7 @@
 Touches come from contacts, as the thesis proposes: every world body whose collision shape
 touches the display link (``bodyName``, default ``mobile_display``) on its front face
 (``face``: front = +z of the link, back = -z) is one pointer of a multi-touch screen. The
-physics engine's contact points (``world.physics.contacts(model, link)``: position, normal,
+physics engine's contact points (``world.contacts(model, link)``: position, normal,
 penetration depth, like ODE's ``dContactGeom``) of one touching body are merged into one
 pointer: its position is the depth-weighted mean of the points, projected onto the display
 and given in display pixels of the display's resolution (the video texture on the same link,
@@ -111,7 +111,7 @@ class TouchScreen(Sensor):
     DEFAULT_TOPIC = 'touch'
     DEFAULT_RATE = 100.0
     ALWAYS_MEASURE = True          # events depend on the history (pointer ids, DOWN/UP)
-    PUBLISH_EVERY_TICK = False
+    USES_POSE = False              # reads contacts and the display's pose itself
     PARAMS = [
         Param('face', ('front', 'back'), 'front', doc='face of the display link that senses'),
         Param('displayWidth', int, None, aliases=('display_width',), unit='px', check='>0',
@@ -151,9 +151,11 @@ class TouchScreen(Sensor):
                                    'ignored' % (self.label, l, n))
                 else:
                     self.button_links.append((n, l))
-        self.pub = self._make_pub(self.topic, TouchEvent)
-        self.button_pub = self.advertise(p.buttonTopicName, ButtonEvent)
-        self.contacts_pub = self.advertise(p.contactsTopicName, ContactsState)
+        self.output('main', TouchEvent, event=True, noisy=False)
+        self.button_pub = self.output('buttons', ButtonEvent, topic=p.buttonTopicName,
+                                      event=True, noisy=False)
+        self.contacts_pub = self.output('contacts', ContactsState, topic=p.contactsTopicName,
+                                        noisy=False)
         step = p.pressureDepth / p.pressureStages
         self.tracker = PointerTracker(p.moveThreshold,
                                       lambda d: min(p.pressureStages - 1, int(d / step)))
@@ -185,9 +187,8 @@ class TouchScreen(Sensor):
         if self._size is None:
             w, h = self.p.displayWidth, self.p.displayHeight
             tex = None
-            for pl in self.world.plugins.get(self.model.name, []):
-                if getattr(pl, 'body', None) == self.body and hasattr(pl, 'texture'):
-                    tex = (pl.texture.width, pl.texture.height)
+            for pl in self.world.find_plugins(self.model.name):
+                tex = pl.texture_size(self.body) or tex
             if tex is None:
                 fw, fh = 2 * self.half[1], 2 * self.half[0]     # +z face: width along y
                 tex = (int(round(LONG_SIDE * fw / fh)), LONG_SIDE) if fh >= fw else \
@@ -324,51 +325,57 @@ class TouchScreen(Sensor):
             self._inject_buttons = keep
         return now
 
-    def update(self, sim_time):
-        t = sim_time
+    def measure(self, state, dt):
+        """(touch events, button changes, contacts) of this sample; the events are kept in
+        ``events`` / ``button_events`` whoever listens."""
+        t = state.t
         every = {}                  # one query for the whole phone, split by link
-        for c in self.world.physics.contacts(self.model.name):
+        for c in self.world.contacts(self.model.name):
             every.setdefault(c.link, []).append(c)
         screen = every.get(self.body, [])
         by_link = dict((link, every.get(link, [])) for _, link in self.button_links)
         touches = self.current_touches(t, screen)
-        events = self.tracker.update(touches)
+        events = [self._touch(t, *e) for e in self.tracker.update(touches)]
         buttons = self.current_buttons(t, by_link)
-        stamp = None
-        if events:
-            stamp = self.stamp()
-            for action, pid, x, y, depth, source in events:
-                self._publish_touch(stamp, t, action, pid, x, y, depth, source)
         changes = [(n, PRESSED, s) for n, s in sorted(buttons.items()) if n not in self.pressed]
         changes += [(n, RELEASED, s) for n, s in sorted(self.pressed.items())
                     if n not in buttons]
         self.pressed = buttons
-        if changes:
-            stamp = stamp or self.stamp()
-            for n, state, source in changes:
-                m = self.ButtonEvent()
-                m.header.stamp, m.header.frame_id = stamp, self.frame_id
-                m.button, m.state, m.source = n, state, source
-                self.button_events.append((t, n, state))
-                self.button_pub.publish(m)
-        if self.force or self.contacts_pub.wanted():
-            stamp = stamp or self.stamp()
-            self.contacts_pub.publish(self.contacts_msg(stamp, screen + sum(by_link.values(), [])))
+        for n, st, _ in changes:
+            self.button_events.append((t, n, st))
+        return events, changes, screen + sum(by_link.values(), [])
 
-    def _publish_touch(self, stamp, t, action, pid, x, y, depth, source):
+    def messages(self, value, stamp):
+        events, changes, contacts = value
+        buttons = []
+        for n, state, source in changes:
+            m = self.ButtonEvent()
+            m.header.stamp, m.header.frame_id = stamp, self.frame_id
+            m.button, m.state, m.source = n, state, source
+            buttons.append(m)
+        return [('main', [self._touch_msg(stamp, e) for e in events]),
+                ('buttons', buttons),
+                ('contacts', lambda: self.contacts_msg(stamp, contacts))]
+
+    def _touch(self, t, action, pid, x, y, depth, source):
+        """One touch event, kept in ``events``."""
         p = self.p
+        pressure = min(1.0, depth / p.pressureDepth)
+        stage = self.tracker.stage_of(depth)
+        self.events.append((t, action, pid, x, y, pressure, stage))
+        return (action, pid, x, y, depth, source, pressure, stage)
+
+    def _touch_msg(self, stamp, e):
+        action, pid, x, y, depth, source, pressure, stage = e
         m = self.TouchEvent()
         m.header.stamp, m.header.frame_id = stamp, self.frame_id
         m.action, m.pointer_id, m.x, m.y = action, pid, x, y
-        m.pressure = min(1.0, depth / p.pressureDepth)
-        m.pressure_stage = self.tracker.stage_of(depth)
+        m.pressure = pressure
+        m.pressure_stage = stage
         m.depth = depth
         m.width, m.height = self.size
         m.source = source
-        self.events.append((t, action, pid, x, y, m.pressure, m.pressure_stage))
-        self.last_msg = m
-        self.last_value = (action, pid, x, y)
-        self.pub.publish(m)
+        return m
 
     def contacts_msg(self, stamp, contacts):
         from mobile_device_sim.msg import ContactState
@@ -394,10 +401,9 @@ class TouchScreen(Sensor):
 
     def reset(self):
         Sensor.reset(self)
-        stamp = None
-        for action, pid, x, y, depth, source in self.tracker.release_all():
-            stamp = stamp or self.stamp()
-            self._publish_touch(stamp, self.world.sim_time, action, pid, x, y, depth, source)
+        stamp = self.stamp()
+        for e in self.tracker.release_all():     # every pointer up: through the gate
+            self.emit('main', self._touch_msg(stamp, self._touch(self.world.sim_time, *e)))
         with self._lock:
             self._inject, self._inject_buttons = [], []
         self.pressed = {}

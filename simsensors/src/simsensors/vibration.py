@@ -30,13 +30,12 @@ different length, a negative or NaN timing, an amplitude outside 0..1, a bad rep
 one error line naming it; the motor keeps doing what it did.
 """
 import math
-import threading
 
 import numpy as np
 
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
-from sim_world.plugins.sensor import Sensor
+from sim_world.plugins.device import Actuator
 
 __all__ = ['Vibration', 'Waveform', 'square_impulse', 'step_forces']
 
@@ -115,10 +114,9 @@ def step_forces(u0, n, dt, period, amplitude):
 
 
 @register('libgazebo_ros_vibration.so', 'libvibration.so')
-class Vibration(Sensor):
+class Vibration(Actuator):
     DEFAULT_TOPIC = 'vibrate'
     DEFAULT_RATE = 100.0
-    MSG = None
     PARAMS = [
         Param('peakForce', float, 0.5, aliases=('peak_force',), unit='N', check='>=0',
               doc='force at amplitude 1'),
@@ -133,8 +131,6 @@ class Vibration(Sensor):
     def setup(self):
         p = self.p
         self.dir = np.asarray(p.direction, float) / np.linalg.norm(p.direction)
-        self._lock = threading.Lock()
-        self._pending = None
         self.wave = None
         self.t0 = 0.0
         self.key = ('vibration', self.spec.name or self.spec.filename)
@@ -153,8 +149,7 @@ class Vibration(Sensor):
         except (ValueError, TypeError) as e:
             self.log_error('%s: vibrate: %s; the motor keeps its last state' % (self.label, e))
             return False
-        with self._lock:
-            self._pending = wave
+        self.queue(wave)
         return True
 
     def one_shot(self, duration, amplitude=1.0):
@@ -167,10 +162,8 @@ class Vibration(Sensor):
         return self.wave.amplitude(u) if self.wave is not None else 0.0
 
     # -- schedule -------------------------------------------------------------------------------
-    def update(self, sim_time):
-        with self._lock:
-            wave, self._pending = self._pending, None
-        physics = self.world.physics
+    def act(self, sim_time, commands):
+        wave = commands[-1] if commands else None      # the last command of the tick wins
         if wave is not None:
             self.wave, self.t0 = (None if wave.silent else wave), sim_time
             if self.wave is None:
@@ -194,7 +187,7 @@ class Vibration(Sensor):
         f_world = body.rotate(self.dir * self.p.peakForce)
         rows = s[:, None] * f_world[None, :]
         self.queued = rows
-        physics.apply_wrench(self.model.name, rows, key=self.key)
+        self.world.apply_wrench(self.model.name, rows, key=self.key)
         a = self._amp(math.floor(u / half + 1e-9) * half)
         self.amplitude_now = a
         self.last_value = a
@@ -204,20 +197,14 @@ class Vibration(Sensor):
         self.amplitude_now = 0.0
         self.last_value = 0.0
         self.queued = None
-        try:
-            self.world.physics.clear_wrench(self.model.name, self.key)
-        except (KeyError, AttributeError):
-            pass
+        self.world.clear_wrench(self.model.name, self.key)
         self.power('vibration', 0.0)
 
     def reset(self):
-        Sensor.reset(self)
+        Actuator.reset(self)
         self.wave = None
         self._stop()
 
     def shutdown(self):
-        try:
-            self.world.physics.clear_wrench(self.model.name, self.key)
-        except (KeyError, AttributeError):
-            pass
-        Sensor.shutdown(self)
+        self.world.clear_wrench(self.model.name, self.key)
+        Actuator.shutdown(self)

@@ -29,17 +29,9 @@ from sim_world.plugins.sensor import Sensor
 
 from . import radio_budget as rb
 
-__all__ = ['AccessPoint', 'WifiReceiver', 'RadioReceiver', 'TransmitterPlugin',
-           'transmitters']
+__all__ = ['AccessPoint', 'WifiReceiver', 'RadioReceiver', 'TransmitterPlugin']
 
 log = logging.getLogger('simsensors.wifi')
-
-
-def transmitters(world, kind):
-    """The world's transmitters of one kind, in a stable order (by id)."""
-    env = getattr(world, 'environment', None)
-    txs = [t for t in getattr(env, 'transmitters', []) if t.kind == kind]
-    return sorted(txs, key=lambda t: (t.id, t.model))
 
 
 def _derived_bssid(name):
@@ -61,12 +53,12 @@ class TransmitterPlugin(Sensor):
     KIND = None
     DEFAULT_TOPIC = None
     DEFAULT_RATE = 1.0
-    PUBLISH_EVERY_TICK = False
+    tx = None
 
     def setup(self):
         self.tx = self.make_transmitter()
         if self.tx is not None:
-            self.env.transmitters.append(self.tx)
+            self.world.add_transmitter(self.tx)
 
     def make_transmitter(self):
         raise NotImplementedError
@@ -79,10 +71,8 @@ class TransmitterPlugin(Sensor):
 
     def shutdown(self):
         Sensor.shutdown(self)
-        tx = getattr(self, 'tx', None)
-        env = getattr(self.world, 'environment', None)
-        if tx is not None and env is not None and tx in env.transmitters:
-            env.transmitters.remove(tx)
+        if self.tx is not None:
+            self.world.remove_transmitter(self.tx)
 
 
 @register('libgazebo_ros_wifi_ap.so', 'libwifi_ap.so')
@@ -173,9 +163,7 @@ class RadioReceiver(Sensor):
         self._set_power()
 
     def _set_power(self):
-        bus = getattr(self.world, 'power', None)
-        if bus is not None:
-            bus.set_flag(self.model.name, self.FLAG, self.enabled)
+        self.power_flag(self.FLAG, self.enabled)
         self.power(self.FLAG, self.p.power if self.enabled else 0.0)
 
     def wall_args(self):
@@ -191,8 +179,8 @@ class RadioReceiver(Sensor):
         in a stable order, whether heard or not)."""
         p = self.p
         out = []
-        seg = getattr(self.world, 'segment_intervals', None)
-        for tx in transmitters(self.world, self.KIND):
+        seg = self.world.segment_intervals
+        for tx in self.world.transmitters(self.KIND):
             l_m = rb.misc_loss(self.rng, p.fading, p.fadingSigma) if draw else 0.0
             try:
                 prx, terms = rb.budget_to(tx, pos, p.rxGain, p.rxLoss, seg,
@@ -238,8 +226,8 @@ class WifiReceiver(RadioReceiver):
     def setup(self):
         from mobile_device_sim.msg import WifiAccessPoint, WifiLink, WifiScan
         self.WifiScan, self.WifiLink, self.WifiAccessPoint = WifiScan, WifiLink, WifiAccessPoint
-        self.pub = self._make_pub(self.topic, WifiScan)
-        self.link_pub = self.advertise(self.p.linkTopicName, WifiLink)
+        self.output('main', WifiScan)
+        self.link_pub = self.output('link', WifiLink, topic=self.p.linkTopicName)
         self.link = None          # (transmitter, P_RX) of the connected access point
         self.last_link = None
         RadioReceiver.setup(self)
@@ -283,12 +271,13 @@ class WifiReceiver(RadioReceiver):
             m.access_points.append(a)
         return m
 
-    def update(self, sim_time):
-        Sensor.update(self, sim_time)
-        if self.fault == 'drop' or not (self.force or self.link_pub.wanted()):
-            return
-        self.last_link = self.link_msg(self.stamp())
-        self.link_pub.publish(self.last_link)
+    def messages(self, value, stamp):
+        return {'main': lambda: self.to_msg(value, stamp),
+                'link': lambda: self._link(stamp)}
+
+    def _link(self, stamp):
+        self.last_link = self.link_msg(stamp)
+        return self.last_link
 
     def reset(self):
         RadioReceiver.reset(self)

@@ -19,6 +19,8 @@ import logging
 
 import numpy as np
 
+from sim_world.logonce import LogOnce
+
 from .imageconv import UnsupportedEncoding, image_to_array
 
 __all__ = ['BarcodeError', 'symbol_name', 'to_gray', 'decode', 'locate', 'format_barcode',
@@ -157,13 +159,11 @@ class BarcodeReader(object):
         self.logger = logger or log.error
         self.problems = 0
         self.images = 0
-        self._reported = set()
+        self._reported = LogOnce(say=self.logger)
 
     def _problem(self, text):
         self.problems += 1
-        if text not in self._reported:
-            self._reported.add(text)
-            self.logger(text)
+        self._reported(text)
 
     def decode_msg(self, msg):
         """[(type, data)] of one sensor_msgs/Image; [] and one log line when the image

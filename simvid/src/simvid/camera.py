@@ -25,32 +25,15 @@ nothing is seen; ``depthImageTopicName``) and ``depth/camera_info``
 range of the points. The camera looks along the link's +x (z up in the image); points are in the
 optical frame (x right, y down, z forward) of ``frameName``.
 """
-import logging
 import math
 import threading
 
 from sim_world.plugins import Plugin, PluginError, register
 from sim_world import fastpub
-from sim_world.model import _local
 from .camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
-from sim_world.plugins.params import Param, ParamError, convert
+from sim_world.plugins.params import Param, parse_all
 
 __all__ = ['CameraPlugin']
-
-log = logging.getLogger('simvid.camera')
-
-
-def _find(elem, *path):
-    """Text of the element at ``path`` (local tag names) below ``elem``, or None."""
-    cur = elem
-    for name in path:
-        if cur is None:
-            return None
-        cur = next((c for c in cur if _local(c.tag) == name), None)
-    if cur is None or cur.text is None:
-        return None
-    return cur.text.strip()
-
 
 def _image_size(text):
     parts = text.replace(',', ' ').split()
@@ -63,7 +46,9 @@ def _image_size(text):
 _image_size.what = '"width height" in whole pixels, 1..8192'
 _PIXELS = (1, 8192)
 
-RATE_ROW = Param('updateRate', float, 0.0, aliases=('update_rate',), unit='Hz', check='>=0')
+RATE_ROW = Param('updateRate', float, 0.0, aliases=('update_rate',), unit='Hz', check='>=0',
+                 doc='Hz of sim time (0: every step); given on the plugin and on its sensor '
+                     '(2011: sensor 30, controller 100) the slowest wins')
 
 #: the camera's parameters, both URDF syntaxes (thesis table 4.1 and Gazebo classic's SDF)
 CAMERA_PARAMS = [
@@ -85,7 +70,18 @@ CAMERA_PARAMS = [
     Param('pointCloudCutoffMax', float, 0.0, unit='m', check='>=0'),
 ] + [Param('distortion_' + n, float, 0.0, aliases=('distortion' + n.upper(),),
            paths=[('camera', 'distortion', {'t1': 'p1', 't2': 'p2'}.get(n, n))])
-     for n in ('k1', 'k2', 't1', 't2', 'k3')]
+     for n in ('k1', 'k2', 't1', 't2', 'k3')] + [
+    Param('robotNamespace', str, None, aliases=('robot_namespace',),
+          doc="topics' namespace (default the model's)"),
+    Param('cameraName', str, '', doc='relative topics go below this name'),
+    Param('frameName', str, None, doc='frame_id of the images (default the camera link)'),
+    Param('imageTopicName', str, 'image_raw', doc='sensor_msgs/Image, rgb8 (imageFormat)'),
+    Param('cameraInfoTopicName', str, 'camera_info', doc='sensor_msgs/CameraInfo'),
+    Param('pointCloudTopicName', str, 'points', doc='sensor_msgs/PointCloud2 (while subscribed)'),
+    Param('depthImageTopicName', str, None,
+          doc='32FC1 depth in m (default depth/image_raw for the depth camera names, else none)'),
+    Param('depthImageCameraInfoTopicName', str, 'depth/camera_info'),
+]
 
 
 @register('libgazebo_ros_camera.so', 'libgazebo_ros_openni_kinect.so',
@@ -112,28 +108,10 @@ class CameraPlugin(Plugin):
         self._subs = []
 
     # -- parameters (declared rows, sim_world.plugins.params) -----------------------------------
-    def _value(self, row, text):
-        """``text`` converted by ``row``; a bad value: one error line and the default."""
-        if text is None:
-            return row.default
-        try:
-            return convert(row, text)
-        except ParamError as e:
-            self._error('%s: %s must be %s, got %r' % (self.label, row.name, e, text.strip()))
-            return row.default
-
     def _read_rate(self):
-        """The slowest positive of the sensor's <update_rate>/<updateRate> and the plugin's
-        <updateRate> (2011: sensor 30, controller 100 -> 30 Hz); 0 = every step."""
-        rates = []
-        texts = (_find(self.spec.sensor, 'update_rate') if self.spec.sensor is not None else None,
-                 _find(self.spec.sensor, 'updateRate') if self.spec.sensor is not None else None,
-                 _find(self.spec.element, 'updateRate') if self.spec.element is not None
-                 else None)
-        for text in texts:
-            r = self._value(RATE_ROW, text)
-            if r > 0:
-                rates.append(r)
+        """The slowest positive rate the plugin and its sensor give (2011: sensor 30,
+        controller 100 -> 30 Hz); 0 = every step."""
+        rates = [r for r in parse_all(self.spec, RATE_ROW, self.label, self.world.log) if r > 0]
         return min(rates) if rates else 0.0
 
     def load(self):
@@ -160,25 +138,22 @@ class CameraPlugin(Plugin):
         except CameraModelError as e:
             raise PluginError('%s: %s' % (self.label, e))
         self.update_rate = self._read_rate()
-        self.frame_id = self.param('frameName') or self.link
+        self.frame_id = p.frameName or self.link
         self.encoding = IMAGE_FORMATS[p.imageFormat] if p.imageFormat else 'rgb8'
-        cam_name = (self.param('cameraName') or '').strip('/')
+        cam_name = p.cameraName.strip('/')
 
-        def topic(names, default):
-            t = self.param(*names, default=default)
+        def topic(t):
             if cam_name and not t.startswith('/'):
                 t = cam_name + '/' + t
             return self.resolve(t)
-        self.image_topic = topic(('imageTopicName',), 'image_raw')
-        self.info_topic = topic(('cameraInfoTopicName',), 'camera_info')
-        self.points_topic = topic(('pointCloudTopicName',), 'points')
+        self.image_topic = topic(p.imageTopicName)
+        self.info_topic = topic(p.cameraInfoTopicName)
+        self.points_topic = topic(p.pointCloudTopicName)
         # depth cameras (openni_kinect / depth_camera names, or any camera that names a
         # depthImageTopicName): 32FC1 depth in metres along the optical axis + its info
-        depth_default = 'depth/image_raw' if self._is_depth_camera() else None
-        d = self.param('depthImageTopicName', default=depth_default)
-        self.depth_topic = topic(('depthImageTopicName',), d) if d else None
-        self.depth_info_topic = topic(('depthImageCameraInfoTopicName',),
-                                      'depth/camera_info') if d else None
+        d = p.depthImageTopicName or ('depth/image_raw' if self._is_depth_camera() else None)
+        self.depth_topic = topic(d) if d else None
+        self.depth_info_topic = topic(p.depthImageCameraInfoTopicName) if d else None
         lo, hi = p.pointCloudCutoff, p.pointCloudCutoffMax
         if hi and hi <= lo:
             self._error('%s: pointCloudCutoffMax must be more than pointCloudCutoff, got %g and '
@@ -188,7 +163,7 @@ class CameraPlugin(Plugin):
         base = self.image_topic.rsplit('/', 1)[0]
         self.hfov_topic = base + '/set_hfov'
         self.rate_topic = base + '/set_update_rate'
-        if getattr(self.world, 'ros_enabled', False):
+        if self.world.ros_enabled:
             self._make_ros()
 
     def _is_depth_camera(self):
@@ -219,7 +194,7 @@ class CameraPlugin(Plugin):
                       self.image_topic, self.info_topic, self.points_topic)
 
     def _error(self, text):
-        (getattr(self.world, 'log', None) or log).error('%s', text)
+        self.world.log.error('%s', text)
 
     # -- run-time changes (rospy threads; applied in the world thread) ------------------------
     def _on_hfov(self, msg):
@@ -288,7 +263,7 @@ class CameraPlugin(Plugin):
         pose = self.world.link_pose(self.model.name, self.link)
         stamp = self.world.ros_now() if self._pubs else None
         renderer = self.world.renderer
-        if getattr(self.world, 'parallel_render', False) and hasattr(renderer, 'submit'):
+        if self.world.parallel_render:
             # rendered and published by the renderer's worker thread while the world steps
             # on; the frame shows the scene of this tick, stamped with this tick's time
             self.camera.submit(renderer, pose,
@@ -324,8 +299,7 @@ class CameraPlugin(Plugin):
                 pubs['depth_info'].publish(info)
 
     def shutdown(self):
-        if getattr(self.world, 'flush', None) is not None:
-            self.world.flush()
+        self.world.flush()
         for s in self._subs:
             s.unregister()
         for p in self._pubs.values():

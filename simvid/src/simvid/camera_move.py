@@ -11,6 +11,7 @@ written with /gazebo/set_model_state.
 """
 import numpy as np
 
+from sim_world.logonce import LogOnce
 from sim_world.transforms import Pose
 
 __all__ = ['movement_from_axes', 'apply_movement', 'CameraMove']
@@ -63,13 +64,12 @@ class CameraMove(object):
         self.set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState,
                                             persistent=False)
         self.moves = 0
-        self._last_error = None
+        self._errors = LogOnce(say=lambda text: self.rospy.logerr('camera_move: %s', text),
+                               until_changed=True)
         self.sub = rospy.Subscriber(joy_topic, Joy, self.on_joy, queue_size=1)
 
     def _error(self, msg):
-        if msg != self._last_error:   # one line per distinct problem, not one per message
-            self.rospy.logerr('camera_move: %s', msg)
-            self._last_error = msg
+        self._errors(msg)              # one line per distinct problem, not one per message
 
     def on_joy(self, joy):
         try:
@@ -101,5 +101,5 @@ class CameraMove(object):
         if not out.success:
             self._error(out.status_message)
             return
-        self._last_error = None
+        self._errors.ok()
         self.moves += 1

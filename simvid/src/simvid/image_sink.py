@@ -14,6 +14,7 @@ parameters, subscribes and calls ``ImageSink.on_image`` and ``ImageSink.spin``.
 import threading
 import time
 
+from sim_world.logonce import LogOnce
 from simvid import imageconv
 from simvid.v4l2 import DeviceError, OutputDevice
 from simvid.yuv import Converter
@@ -33,22 +34,10 @@ PARAMS = {
 }
 
 
-class OnceLogger(object):
-    """Logs a message once, again only after a different message (or ``reset``)."""
-
-    def __init__(self, log):
-        self.log = log
-        self.last = None
-
-    def __call__(self, msg):
-        if msg != self.last:
-            self.last = msg
-            self.log(msg)
-            return True
-        return False
-
-    def reset(self):
-        self.last = None
+def OnceLogger(log):
+    """Logs a message once, again only after a different message (or ``reset``): the
+    repository's one log-once (sim_world.logonce)."""
+    return LogOnce(say=log, until_changed=True)
 
 
 class FramePacer(object):

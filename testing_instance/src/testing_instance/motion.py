@@ -7,34 +7,12 @@ import math
 
 import numpy as np
 
+# the quaternion maths is sim_world's (one module), re-exported for the runner
+from sim_world.transforms import quat_from_rpy, rpy_from_quat  # noqa: F401
+from sim_world.transforms import quat_multiply as quat_mul  # noqa: F401
+
 __all__ = ['quat_from_rpy', 'rpy_from_quat', 'slerp', 'path_points', 'walk_points',
            'rotate_points', 'ramp_points', 'series_points']
-
-
-def quat_from_rpy(r, p, y):
-    """Quaternion (x, y, z, w) of fixed-axis roll, pitch, yaw (URDF/Gazebo convention)."""
-    cr, sr = math.cos(r / 2), math.sin(r / 2)
-    cp, sp = math.cos(p / 2), math.sin(p / 2)
-    cy, sy = math.cos(y / 2), math.sin(y / 2)
-    return np.array([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-                     cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy])
-
-
-def rpy_from_quat(q):
-    x, y, z, w = q
-    r = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    p = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([r, p, yw])
-
-
-def quat_mul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return np.array([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz])
 
 
 def slerp(q0, q1, s):

@@ -38,6 +38,7 @@ import threading
 import numpy as np
 
 from simvid.imageconv import CHANNELS, UnsupportedEncoding, image_to_array
+from sim_world.logonce import LogOnce
 from sim_world.plugins import Plugin, PluginError, register
 from sim_world.plugins.params import Param
 
@@ -238,10 +239,10 @@ class VideoPlugin(Plugin):
         label = 'video texture %s/%s' % (self.model.name, body)
         self.texture = VideoTexture(self.size[0], self.size[1], name=label,
                                     logger=self._log_error)
-        self._render_failed = False
+        self._render_failed = LogOnce(say=self._log_error)   # a broken GL stays broken: once
         self._uploaded = False
         self._subs = []
-        if getattr(self.world, 'ros_enabled', False):
+        if self.world.ros_enabled:
             import rospy
             from sensor_msgs.msg import Image
             from std_msgs.msg import String
@@ -281,7 +282,7 @@ class VideoPlugin(Plugin):
         return clamp(w), clamp(h)
 
     def _log_error(self, text):
-        if getattr(self.world, 'ros_enabled', False):
+        if self.world.ros_enabled:
             import rospy
             rospy.logerr(text)
         else:
@@ -299,7 +300,7 @@ class VideoPlugin(Plugin):
 
     # -- render thread ---------------------------------------------------------------------
     def update(self, sim_time):
-        if getattr(self.world, '_renderer', True) is None:
+        if self.world.renderer_if_created is None:
             # No renderer yet: nobody looks. Creating one here would make every world with
             # a display pay for a GL context; the image waits until a camera creates it.
             return
@@ -311,10 +312,11 @@ class VideoPlugin(Plugin):
                                                     face=self.face)
             self._uploaded = True
         except Exception as e:  # noqa: BLE001 - a GL problem must not stop the world loop
-            if not self._render_failed:
-                self._render_failed = True
-                self._log_error('%s: cannot update the texture: %s'
-                                % (self.texture.name, e))
+            self._render_failed('%s: cannot update the texture: %s' % (self.texture.name, e),
+                                key='render')
+
+    def texture_size(self, link):
+        return (self.texture.width, self.texture.height) if link == self.body else None
 
     def renderer_created(self, renderer):
         # a camera just created the renderer: show the waiting image in its first frame

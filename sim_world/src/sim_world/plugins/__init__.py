@@ -20,10 +20,31 @@ Lifecycle, driven by ``sim_world.world.World``:
 4. ``renderer_created(renderer)`` once, when the first camera creates the renderer;
    ``reset()`` on /gazebo/reset_world, ``shutdown()`` when the model is deleted.
 
-What plugins may use of the world: ``world.sim_time``, ``world.ros_now()`` (rospy.Time
-of the sim time), ``world.link_pose(model_name, link_name)`` (Pose in the world),
-``world.renderer`` (the one offscreen renderer, created on first use), ``world.models``,
-``world.ros_enabled`` (False in unit tests without a roscore).
+The world seam: what a plugin may use of ``sim_world.world.World`` (``WORLD_SEAM``; nothing
+else, no private attribute, no probing with getattr/hasattr; test/unit/test_world_seam.py
+holds every plugin module to it):
+
+- time and threads: ``sim_time`` (s), ``step_size`` (s of one physics step), ``ros_now()``
+  (rospy.Time of the sim time), ``lock`` (taken by ROS callbacks that touch the world),
+  ``ros_enabled`` (False in unit tests without a roscore), ``log`` (the world's logger),
+  ``reschedule()`` (after a plugin changed its rate from another thread);
+- models and state: ``models`` (name -> Model), ``link_pose(model, link)`` (Pose in the
+  world), ``entity_state(entity)`` and ``pass_state(entity)`` (pose, linear and angular
+  velocity; the second read once per plugin pass), ``gravity`` (m/s^2 vector), ``rng(*keys)``
+  (a generator from the world's seed);
+- the renderer: ``renderer`` (the one offscreen renderer, created on first use),
+  ``renderer_if_created`` (None until a camera made it), ``parallel_render`` and
+  ``flush()`` (cameras render in the renderer's worker thread), ``lights``, ``ambient``;
+- ray casts: ``raycast(origin, direction, max_dist, ignore)``,
+  ``segment_intervals(a, b, ignore)``;
+- contacts and wrenches: ``contacts(model, link=None)``, ``apply_wrench(model, force,
+  torque, steps, key)``, ``clear_wrench(model, key)``;
+- power: ``power`` (the power bus: ``set_draw``, ``draws``, ``set_flag``, ``flag``);
+- environment: ``environment`` (weather, geodesy, magnetic field, indoor volumes);
+- transmitters: ``transmitters(kind)``, ``add_transmitter(tx)``, ``remove_transmitter(tx)``;
+- the registry: ``find_plugins(model, key=None)`` (other plugins of a model, e.g. the video
+  texture whose ``texture_size(link)`` the touch screen reads), ``shared(name, factory)``
+  (one object per world for a plugin family: the NFC proxy, the audio scene).
 
 Register a plugin with ``@register('libgazebo_ros_foo.so')``. Plugin modules are found,
 not listed: the registry imports the modules of this package, and of every stack of the
@@ -42,10 +63,24 @@ import os
 import pkgutil
 import sys
 
+from ..logonce import LogOnce
 from .timer import UpdateTimer
 
 __all__ = ['Plugin', 'PluginError', 'register', 'lookup', 'create', 'registered_names',
-           'plugin_modules']
+           'plugin_modules', 'WORLD_SEAM']
+
+#: what a plugin may use of the World (see the module doc)
+WORLD_SEAM = (
+    'sim_time', 'step_size', 'ros_now', 'lock', 'ros_enabled', 'log', 'reschedule',
+    'models', 'link_pose', 'entity_state', 'pass_state', 'gravity', 'rng',
+    'renderer', 'renderer_if_created', 'parallel_render', 'flush', 'lights', 'ambient',
+    'raycast', 'segment_intervals',
+    'contacts', 'apply_wrench', 'clear_wrench',
+    'power',
+    'environment',
+    'transmitters', 'add_transmitter', 'remove_transmitter',
+    'find_plugins', 'shared',
+)
 
 log = logging.getLogger('sim_world.plugins')
 
@@ -55,7 +90,7 @@ ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
 
 _REGISTRY = {}
 _loaded = False
-_warned = set()
+_unimplemented = LogOnce(log)      # one warning per plugin name and process
 
 
 class PluginError(ValueError):
@@ -100,15 +135,9 @@ class Plugin(object):
     def set_update_rate_now(self, rate):
         """Change the rate in Hz of sim time, effective at once (from any thread); raises
         ValueError for a negative or non-finite rate."""
-        lock = getattr(self.world, 'lock', None)
-        if lock is None:
-            self.timer.set_rate(rate, getattr(self.world, 'sim_time', 0.0))
-            return
-        with lock:
+        with self.world.lock:
             self.timer.set_rate(rate, self.world.sim_time)
-            resched = getattr(self.world, '_reschedule', None)
-            if resched is not None:
-                resched()
+            self.world.reschedule()
 
     # -- helpers -------------------------------------------------------------------------
     @property
@@ -123,8 +152,7 @@ class Plugin(object):
         """Declared parameters (``sim_world.plugins.params.Param`` rows) read from the spec;
         each bad value gets one error line and its default."""
         from .params import parse_params
-        vals, _ = parse_params(self.spec, rows, self.label,
-                               getattr(self.world, 'log', None) or log)
+        vals, _ = parse_params(self.spec, rows, self.label, self.world.log)
         return vals
 
     def float_param(self, *names, **kw):
@@ -164,8 +192,13 @@ class Plugin(object):
         """Called once when the world creates its renderer (the first camera that renders),
         before that camera's first frame."""
 
+    def texture_size(self, link):
+        """(width, height) px of the picture this plugin shows on ``link`` of its model, or
+        None (video textures answer; the touch screen maps touches to these pixels)."""
+        return None
+
     def reset(self):
-        self.timer.reset(getattr(self.world, 'sim_time', 0.0))
+        self.timer.reset(self.world.sim_time)
 
     def shutdown(self):
         pass
@@ -256,10 +289,9 @@ def create(spec, model, world, logger=None):
     logger = logger or log
     cls = lookup(spec.filename)
     if cls is None:
-        if spec.filename not in _warned:
-            _warned.add(spec.filename)
-            logger.warning('plugin %s (model %s) is not implemented; the model loads without it',
-                           spec.filename, model.name)
+        _unimplemented.warning('plugin %s (model %s) is not implemented; the model loads '
+                               'without it' % (spec.filename, model.name),
+                               key=spec.filename, logger=logger)
         return None
     plugin = cls(spec, model, world)
     try:

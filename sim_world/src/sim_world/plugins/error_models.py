@@ -165,22 +165,31 @@ def error_params(prefix='', dims=1, defaults=None, aliases=None):
 
 
 def _sdf_noise(el, dims):
-    """ErrorModel keywords from an SDF <noise> element (None if it is 'none')."""
+    """ErrorModel keywords from an SDF <noise> element ({} if it is 'none'); ParamError
+    saying which child is wrong (not a number, or negative where a spread must not be)."""
     from .params import _local
 
-    def num(tag, default=0.0):
+    def num(tag, default=0.0, nonneg=True):
         for c in el:
             if _local(c.tag) == tag and c.text and c.text.strip():
-                return float(c.text)
+                try:
+                    v = float(c.text)
+                except ValueError:
+                    v = math.nan
+                if not math.isfinite(v) or (nonneg and v < 0):
+                    raise ParamError('<%s> must be %s, got %r' % (
+                        tag, 'a number >= 0' if nonneg else 'a number', c.text.strip()))
+                return v
         return default
 
     t = el.get('type', 'gaussian')
     if t == 'none':
         return {}
     if t not in ('gaussian', 'gaussian_quantized'):
-        raise ParamError('type gaussian, gaussian_quantized or none')
-    kw = dict(offset=num('mean'), gaussian_noise=num('stddev'), bias_mean=num('bias_mean'),
-              bias_stddev=num('bias_stddev'), drift=num('dynamic_bias_stddev'))
+        raise ParamError('type must be gaussian, gaussian_quantized or none, got %r' % t)
+    kw = dict(offset=num('mean', nonneg=False), gaussian_noise=num('stddev'),
+              bias_mean=num('bias_mean', nonneg=False), bias_stddev=num('bias_stddev'),
+              drift=num('dynamic_bias_stddev'))
     tc = num('dynamic_bias_correlation_time', 0.0)
     if kw['drift'] > 0:
         kw['drift_frequency'] = 1.0 / tc if tc > 0 else 0.0

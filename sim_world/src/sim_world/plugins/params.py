@@ -23,7 +23,8 @@ import numpy as np
 
 from ..model import _local
 
-__all__ = ['Param', 'ParamValues', 'parse_params', 'convert', 'describe', 'ParamError']
+__all__ = ['Param', 'ParamValues', 'parse_params', 'parse_all', 'convert', 'describe',
+           'ParamError', 'find_text', 'find_texts']
 
 
 class ParamError(ValueError):
@@ -171,16 +172,17 @@ class ParamValues(object):
         return hasattr(self, name)
 
 
-def find_text(spec, row):
-    """Text of the first element naming ``row`` (plugin element, sensor element, then the
-    row's SDF paths below the sensor), or None."""
+def find_texts(spec, row):
+    """Texts of every element naming ``row``, in the order they count: the plugin element,
+    the sensor element, then the row's SDF paths below the sensor."""
+    out = []
     for parent in (spec.element, spec.sensor):
         if parent is None:
             continue
         for n in row.names:
             for child in parent:
                 if _local(child.tag) == n and child.text is not None and child.text.strip():
-                    return child.text
+                    out.append(child.text)
     for path in row.paths:
         cur = spec.sensor
         for name in path:
@@ -188,8 +190,33 @@ def find_text(spec, row):
                 break
             cur = next((c for c in cur if _local(c.tag) == name), None)
         if cur is not None and cur.text is not None and cur.text.strip():
-            return cur.text
-    return None
+            out.append(cur.text)
+    return out
+
+
+def find_text(spec, row):
+    """Text of the first element naming ``row`` (see find_texts), or None."""
+    texts = find_texts(spec, row)
+    return texts[0] if texts else None
+
+
+def parse_all(spec, row, label, log=None):
+    """Every value given for ``row`` (find_texts order), each bad one an error line (as
+    parse_params) and left out: for a parameter the plugin and its sensor may both set
+    (the camera's rate: the slowest wins)."""
+    vals = []
+    for text in find_texts(spec, row):
+        try:
+            vals.append(convert(row, text))
+        except ParamError as e:
+            if log is not None:
+                log.error('%s', _bad(label, row, e, text))
+    return vals
+
+
+def _bad(label, row, e, text):
+    """The one wording of a bad parameter."""
+    return '%s: %s must be %s, got %r' % (label, row.name, e, text.strip())
 
 
 def parse_params(spec, rows, label, log=None):
@@ -208,7 +235,7 @@ def parse_params(spec, rows, label, log=None):
                 v = convert(row, text)
                 vals.given.add(row.name)
             except ParamError as e:
-                line = '%s: %s must be %s, got %r' % (label, row.name, e, text.strip())
+                line = _bad(label, row, e, text)
                 errors.append(line)
                 if log is not None:
                     log.error('%s', line)

@@ -9,61 +9,52 @@ A sensor declares::
         PARAMS = [Param('magnitude', float, None, unit='T', check='>=0')]
         DEFAULT_TOPIC = 'magnetic'
         DEFAULT_RATE = 50.0
-        MSG = MagneticField                      # the main publisher's type
         ERRORS = {'': dict(dims=3, gaussian_noise=1e-7)}
-        def measure(self, state, dt):            # pure: link state + environment -> value
+        def setup(self):                         # outputs: the main one and any others
+            self.output('main', MagneticField)
+        def measure(self, state, dt):            # link state + environment -> value
             return self.errors[''].apply(self.to_frame(self.env.magnetic_field_world(), state))
-        def to_msg(self, value, stamp): ...      # the message; the base publishes it
+        def to_msg(self, value, stamp): ...      # the main message; or ``messages`` for all
 
 The base class reads the common parameters (body, topic, frame, namespace, rate, period,
 offset) and the sensor's rows in one place (``sim_world.plugins.params``), builds one
 ``ErrorModel`` per channel from hector's names (with the channel prefix) or SDF ``<noise>``,
 gives the sensor a generator derived from the world's seed and its model and plugin names,
-and on every tick of its ``UpdateTimer``:
+and owns the whole update. On every tick of its ``UpdateTimer``:
 
-1. steps every error model (the draws of a sensor never depend on who subscribes, so the
+1. ``tick(sim_time, dt)`` (state that moves whoever listens: a microphone's track) and
+   every error model steps (the draws of a sensor never depend on who subscribes, so the
    same seed gives the same data whether or not anybody listened before);
-2. measures and publishes while anybody subscribes to one of its topics (always in unit
-   tests without ROS, or when ``force`` is set, or every tick with ``ALWAYS_MEASURE`` for
-   sensors whose state depends on their history: battery charge, GPS time to first fix);
-3. applies injected faults (``set_fault``: drop, freeze, noise multiplier, or the sensor's
-   own ones through ``on_fault``).
+2. while anybody subscribes to one of its outputs (always in unit tests without ROS, or
+   when ``force`` is set, or every tick with ``ALWAYS_MEASURE`` for sensors whose state
+   depends on their history: battery charge, GPS time to first fix) it measures
+   (``measure(state, dt)`` -> value, None: nothing this tick) and hands the messages of the
+   tick (``messages(value, stamp)`` -> {output key: message | [messages] | callable
+   building one}; default: the main output's ``to_msg``) to the gate;
+3. the gate (``emit``; event sensors call it themselves for events between ticks) applies
+   subscriber gating and the fault to every output alike (``set_fault``): ``drop``
+   publishes nothing; ``freeze`` repeats the messages each sampled output published in its
+   last tick before the fault (new stamps) and stops event outputs; ``noise`` multiplies every error model's sigma; the sensor's
+   own faults (``FAULTS_OWN`` + ``on_fault``) act in its measurement. A fault the sensor
+   cannot apply (no outputs, no noise) is refused with a ValueError saying why.
+
+No sensor overrides ``update``. Actuators (force, LED, vibration, projector, speaker,
+thermal display) are ``sim_world.plugins.device.Actuator``: no error models, no faults.
 """
+import copy
 import hashlib
-import logging
 
 import numpy as np
 
-from . import Plugin, PluginError
+from .device import BASE_PARAMS, DEVICE_FRAME, Device, Output, SensorState, content
 from .error_models import error_model_from, error_params
-from .params import Param, ParamError
+from .params import ParamError
 
-__all__ = ['Sensor', 'SensorState', 'Publisher', 'BASE_PARAMS', 'DEVICE_FRAME', 'FAULTS',
-           'stable_seed']
+__all__ = ['Sensor', 'SensorState', 'Output', 'BASE_PARAMS', 'DEVICE_FRAME', 'FAULTS',
+           'stable_seed', 'content', 'inject_fault']
 
-log = logging.getLogger('sim_world.sensor')
-
-#: Android's device frame (x right, y up along the long edge, z out of the screen)
-DEVICE_FRAME = 'mobile_device_frame'
-
-#: faults every sensor understands; sensors add their own through ``FAULTS`` + ``on_fault``
+#: faults every sensor understands; sensors add their own through ``FAULTS_OWN`` + ``on_fault``
 FAULTS = ('none', 'drop', 'freeze', 'noise')
-
-BASE_PARAMS = [
-    Param('bodyName', str, None, aliases=('body_name', 'bodyname'),
-          doc='link the sensor is mounted on (default: the <gazebo reference> link or the '
-              'model root)'),
-    Param('topicName', str, None, aliases=('topic_name', 'topic'),
-          doc='main topic, relative to robotNamespace'),
-    Param('frameName', str, None, aliases=('frame_name', 'frameId', 'frame_id'),
-          doc='frame_id of the messages (default mobile_device_frame where the model has it)'),
-    Param('robotNamespace', str, None, aliases=('robot_namespace',)),
-    Param('updateRate', float, None, aliases=('update_rate',), unit='Hz', check='>=0',
-          doc='Hz of sim time (0: every world step)'),
-    Param('updatePeriod', float, None, aliases=('update_period',), unit='s', check='>=0'),
-    Param('updateOffset', float, 0.0, aliases=('update_offset',), unit='s', check='>=0'),
-    Param('alwaysOn', bool, True, aliases=('always_on',)),
-]
 
 
 def stable_seed(*keys):
@@ -72,74 +63,25 @@ def stable_seed(*keys):
     return [int.from_bytes(h[i:i + 4], 'little') for i in range(0, 16, 4)]
 
 
-class SensorState(object):
-    """What a measurement reads: sim time, the world pose of the report frame, the body's
-    world pose and world-frame velocities."""
-    __slots__ = ('t', 'pose', 'body_pose', 'lin', 'ang')
-
-    def __init__(self, t, pose, body_pose, lin, ang):
-        self.t, self.pose, self.body_pose, self.lin, self.ang = t, pose, body_pose, lin, ang
-
-
-class Publisher(object):
-    """A topic of a sensor: the rospy publisher (None without ROS) and the last message
-    (unit tests read ``last`` and ``count`` without a roscore)."""
-
-    def __init__(self, topic, msg_type, ros_pub=None):
-        self.topic, self.type, self.ros = topic, msg_type, ros_pub
-        self.last = None
-        self.count = 0
-
-    def wanted(self):
-        return self.ros is None or self.ros.get_num_connections() > 0
-
-    def publish(self, msg):
-        self.last = msg
-        self.count += 1
-        if self.ros is not None:
-            self.ros.publish(msg)
-
-    def unregister(self):
-        if self.ros is not None:
-            self.ros.unregister()
-            self.ros = None
-
-
-class Sensor(Plugin):
-    PARAMS = []
-    DEFAULT_TOPIC = None
-    DEFAULT_RATE = 10.0
-    MSG = None
+class Sensor(Device):
     #: channel prefix -> dict(dims=..., error model defaults..., sdf=(paths of <noise>),
     #: aliases={field: (names,)})
     ERRORS = {}
     #: measure on every tick, subscribed or not (state that depends on history)
     ALWAYS_MEASURE = False
-    #: publish the main message on every tick (False: the sensor publishes itself)
-    PUBLISH_EVERY_TICK = True
-    #: publisher queue: at real_time_factor 0 the world publishes bursts faster than a
-    #: subscriber (a recorder) reads; 100 keeps a 100 Hz topic lossless over the testing
-    #: instance's 0.25 s lockstep slices (10 dropped messages at real-time factor 5)
-    QUEUE_SIZE = 100
-    LATCH = False
+    #: the sensor's own faults (applied in its measurement through ``on_fault``)
+    FAULTS_OWN = ()
 
     def __init__(self, spec, model, world):
-        Plugin.__init__(self, spec, model, world)
-        self.force = False
-        self.pubs = []
-        self.subs = []
-        self.srvs = []
-        self.pub = None
+        Device.__init__(self, spec, model, world)
         self.errors = {}
-        self.last_value = None
-        self.last_msg = None
         self.fault = 'none'
         self.fault_value = 0.0
-        self._logged = set()
+        self.noise_scale = 1.0
 
     # -- declaration -------------------------------------------------------------------------
     @classmethod
-    def param_rows(cls):
+    def base_rows(cls):
         rows = list(BASE_PARAMS)
         for prefix, d in cls.ERRORS.items():
             d = dict(d)
@@ -147,234 +89,163 @@ class Sensor(Plugin):
             d.pop('sdf', None)
             aliases = d.pop('aliases', None)
             rows.extend(error_params(prefix, dims, d, aliases))
-        rows = [Param(r.name, r.type, cls.DEFAULT_RATE, r.aliases, r.unit, r.check, r.doc)
-                if r.name == 'updateRate' else
-                Param(r.name, r.type, cls.DEFAULT_TOPIC, r.aliases, r.unit, r.check, r.doc)
-                if r.name == 'topicName' else r for r in rows]
-        names = set()
-        out = []
-        for r in rows + list(cls.PARAMS):     # a sensor's own row replaces a base row
-            if r.name in names:
-                out = [x for x in out if x.name != r.name]
-            names.add(r.name)
-            out.append(r)
-        return out
+        return rows
 
-    # -- lifecycle -----------------------------------------------------------------------------
-    def load(self):
-        self.p = self.parse(self.param_rows())
+    def load_more(self):
         p = self.p
-        self.body = p.bodyName or self.spec.link or self.model.root_link
-        if self.body not in self.model.links:
-            raise PluginError('%s: bodyName %r is not a link of the model'
-                              % (self.label, self.body))
-        frame = p.frameName
-        if frame is None:
-            frame = DEVICE_FRAME if DEVICE_FRAME in self.model.links else self.body
-        self.frame_id = frame
-        frame_link = frame if frame in self.model.links else self.body
-        poses = self.model.link_poses()
-        self.frame_offset = poses[self.body].inverse() * poses[frame_link]
-        self._frame_is_body = frame_link == self.body
-        rate = p.updateRate if p.updateRate is not None else self.DEFAULT_RATE
-        if p.updatePeriod:
-            rate = 1.0 / p.updatePeriod
-        self.timer.rate = rate
-        self.timer.offset = p.updateOffset
-        self.timer.reset(getattr(self.world, 'sim_time', 0.0))
-        self.rng = self.world.rng(self.model.name, self.spec.name or self.spec.filename) \
-            if hasattr(self.world, 'rng') else np.random.default_rng(stable_seed(
-                self.model.name, self.spec.filename))
         for prefix, d in self.ERRORS.items():
             d = dict(d)
             try:
                 self.errors[prefix] = error_model_from(
                     p, prefix, d.get('dims', 1), rng=self.rng, spec=self.spec,
                     sdf_paths=d.get('sdf', ()), defaults=d)
-            except (ParamError, ValueError) as e:
-                self.log_error('%s: <noise> of channel %r must be %s; no noise on it'
+            except (ParamError, ValueError) as e:     # what is wrong with the SDF <noise>
+                self.log_error('%s: <noise> of channel %r: %s; no noise on it'
                                % (self.label, prefix or 'value', e))
                 self.errors[prefix] = error_model_from(
                     _Defaults(self.param_rows()), prefix, d.get('dims', 1), rng=self.rng,
                     defaults=d)
-        self.topic = self.resolve(p.topicName or self.DEFAULT_TOPIC or self.spec.name)
-        if self.MSG is not None:
-            self.pub = self._make_pub(self.topic, self.MSG, self.LATCH)
-        self.setup()
-        if self.ros:
-            import rospy
-            rospy.loginfo('%s %s: %s at %g Hz of sim time, frame %s',
-                          type(self).__name__, self.model.name, self.topic, self.timer.rate,
-                          self.frame_id)
 
-    def setup(self):
-        """More publishers, subscribers, services (after parameters are read)."""
-
-    @property
-    def namespace(self):
-        ns = self.p.robotNamespace if hasattr(self, 'p') else None
-        if ns is None:
-            ns = self.model.robot_namespace
-        return (ns or '').strip('/')
-
-    @property
-    def ros(self):
-        return bool(getattr(self.world, 'ros_enabled', False))
-
-    @property
-    def env(self):
-        return self.world.environment
-
-    # -- ROS wiring ------------------------------------------------------------------------------
-    def _make_pub(self, topic, msg_type, latch=False):
-        ros_pub = None
-        if self.ros:
-            import rospy
-            ros_pub = rospy.Publisher(topic, msg_type, queue_size=self.QUEUE_SIZE, latch=latch)
-        pub = Publisher(topic, msg_type, ros_pub)
-        self.pubs.append(pub)
-        return pub
-
-    def advertise(self, rel_topic, msg_type, latch=False):
-        """A further topic (relative names in the robot namespace)."""
-        return self._make_pub(self.resolve(rel_topic), msg_type, latch)
-
-    def subscribe(self, rel_topic, msg_type, callback, queue_size=10):
-        if not self.ros:
-            return None
-        import rospy
-        sub = rospy.Subscriber(self.resolve(rel_topic), msg_type, callback,
-                               queue_size=queue_size)
-        self.subs.append(sub)
-        return sub
-
-    def service(self, rel_name, srv_type, callback):
-        if not self.ros:
-            return None
-        import rospy
-        srv = rospy.Service(self.resolve(rel_name), srv_type, callback)
-        self.srvs.append(srv)
-        return srv
-
-    def log_error(self, text):
-        """One error line per distinct text (a bad command repeated 100 times: one line)."""
-        if text in self._logged:
-            return
-        self._logged.add(text)
-        logger = getattr(self.world, 'log', None) or log
-        logger.error('%s', text)
-
-    def log_info(self, text):
-        logger = getattr(self.world, 'log', None) or log
-        logger.info('%s', text)
-
-    def power(self, component, watts):
-        """Report a power draw (W) of this phone's ``component`` to the battery."""
-        bus = getattr(self.world, 'power', None)
-        if bus is not None:
-            bus.set_draw(self.model.name, component, watts)
-
-    def subscribed(self):
-        """Anybody listening to any topic of this sensor (always True without ROS)."""
-        if self.force or not self.ros:
-            return True
-        return any(p.ros is not None and p.ros.get_num_connections() > 0 for p in self.pubs)
-
-    # -- measurement -----------------------------------------------------------------------------
-    def state(self, t=None):
-        t = self.world.sim_time if t is None else t
-        entity = '%s::%s' % (self.model.name, self.body)
-        cache = getattr(self.world, 'pass_states', None)    # one plugin pass of the world
-        got = cache.get(entity) if cache is not None else None
-        if got is None:
-            got = self.world.entity_state(entity)
-            if cache is not None:
-                cache[entity] = got
-        body, lin, ang = got
-        pose = body if self._frame_is_body else body * self.frame_offset
-        return SensorState(t, pose, body, lin, ang)
-
-    def to_frame(self, v_world, state):
-        """A world-frame vector in the report frame."""
-        return state.pose.inverse().rotate(np.asarray(v_world, float))
-
-    def measure(self, state, dt):
-        raise NotImplementedError
-
-    def to_msg(self, value, stamp):
-        raise NotImplementedError
-
-    def stamp(self):
-        """The header stamp: sim time (rospy.Time; rospy imports without a roscore)."""
-        return self.world.ros_now()
-
+    # -- the update: owned here ------------------------------------------------------------------
     def update(self, sim_time):
         dt = self.timer.last_dt
+        self.tick(sim_time, dt)
         for e in self.errors.values():
             e.step(dt)
         if not (self.ALWAYS_MEASURE or self.subscribed()):
             return
-        if self.fault == 'drop':
-            if self.ALWAYS_MEASURE:
-                self.measure(self.state(sim_time), dt)
+        value = self.measure(self.state(sim_time), dt)
+        if value is None:
             return
-        if self.fault == 'freeze' and self.last_value is not None:
-            value = self.last_value
-            if self.ALWAYS_MEASURE:
-                self.measure(self.state(sim_time), dt)
-        else:
-            value = self.measure(self.state(sim_time), dt)
-            self.last_value = value
-        if value is None or not self.PUBLISH_EVERY_TICK or self.pub is None:
-            return
-        if not self.pub.wanted() and not self.force:
-            return
-        msg = self.to_msg(value, self.stamp())
-        self.last_msg = msg
-        self.pub.publish(msg)
+        self.last_value = value
+        if self.ALWAYS_MEASURE and not self._any_wanted():
+            return                       # measured for its history; nobody to tell
+        msgs = self.messages(value, self.stamp())
+        for key, m in (msgs.items() if isinstance(msgs, dict) else msgs):
+            if callable(m):              # built only when it can pass the gate
+                if self.fault == 'drop' or not (self.force or self.outputs[key].wanted()):
+                    continue
+                m = m()
+            for one in (m if isinstance(m, list) else (m,)):
+                self.emit(key, one)
+
+    def _any_wanted(self):
+        return self.force or any(o.wanted() for o in self.pubs)
+
+    def tick(self, sim_time, dt):
+        """Called on every tick before the error models step and whoever listens."""
+
+    def measure(self, state, dt):
+        raise NotImplementedError
+
+    def messages(self, value, stamp):
+        """{output key: message, [messages] or a callable building one} of one tick."""
+        if self.pub is None:
+            return {}
+        return {'main': lambda: self.to_msg(value, stamp)}
+
+    def to_msg(self, value, stamp):
+        raise NotImplementedError
+
+    def emit(self, key, msg):
+        """The gate: faults first (drop: nothing; freeze: the messages the output published
+        in its last tick before the fault, again, in order, with new stamps; nothing for
+        events), then subscribers and on-change (Device.emit)."""
+        out = self.outputs[key]
+        if msg is None or self.fault == 'drop':
+            return False
+        if self.fault == 'freeze':
+            if out.event:
+                return False
+            if out.held:
+                now = self.world.sim_time
+                t, i = out.held_i
+                i = i if t == now else 0
+                if i >= len(out.held):
+                    return False          # more messages this tick than the frozen tick had
+                out.held_i = (now, i + 1)
+                msg = _restamped(out.held[i], msg() if callable(msg) else msg)
+        sent = Device.emit(self, key, msg)
+        if sent and self.fault == 'freeze' and not out.held:
+            out.held = out.batch          # nothing before the fault: the first tick after
+        return sent
 
     # -- faults ------------------------------------------------------------------------------------
+    def has_noise(self):
+        """Anything a ``noise`` fault can scale (an error model with a sigma > 0)."""
+        return any(np.any(e.gaussian_noise > 0) for e in self.errors.values())
+
     def set_fault(self, fault, value=0.0):
-        """Inject a fault: 'none' (clear), 'drop' (stop publishing), 'freeze' (keep
-        publishing the last value), 'noise' (multiply every noise sigma by value), or one of
-        the sensor's own (``on_fault``). Raises ValueError naming what is wrong."""
-        if fault not in FAULTS:
-            if not self.on_fault(fault, value):
-                raise ValueError('fault %r is not known to %s (known: %s)'
-                                 % (fault, type(self).__name__,
-                                    ', '.join(FAULTS + tuple(self.extra_faults()))))
-            self.fault = fault
-            self.fault_value = value
-            return
-        if fault == 'noise' and not (value >= 0):
-            raise ValueError('noise fault needs a multiplier >= 0, got %r' % value)
-        if self.fault not in FAULTS:
+        """Inject a fault: 'none' (clear), 'drop' (publish nothing), 'freeze' (repeat every
+        output's last message), 'noise' (multiply every noise sigma by value), or one of the
+        sensor's own (``FAULTS_OWN``). Raises ValueError naming what is wrong, or why this
+        sensor cannot apply it."""
+        name = type(self).__name__
+        known = FAULTS + tuple(self.FAULTS_OWN)
+        if fault not in known:
+            raise ValueError('fault %r is not known to %s (known: %s)'
+                             % (fault, name, ', '.join(known)))
+        if fault != 'none' and not self.outputs:
+            raise ValueError('fault %r: %s of model %s publishes no topic (its data reaches '
+                             'a receiver\'s plugin: set the fault there)'
+                             % (fault, name, self.model.name))
+        if fault == 'noise':
+            if not (value >= 0):
+                raise ValueError('noise fault needs a multiplier >= 0, got %r' % value)
+            if not self.has_noise():
+                raise ValueError('fault \'noise\': %s of model %s has no noise to scale (no '
+                                 'error model with a sigma > 0)' % (name, self.model.name))
+        if fault in self.FAULTS_OWN:
+            self.on_fault(fault, value)
+        elif self.fault in self.FAULTS_OWN:
             self.on_fault('none', 0.0)
         self.fault, self.fault_value = fault, value
+        self.noise_scale = value if fault == 'noise' else 1.0
         for e in self.errors.values():
-            e.noise_scale = value if fault == 'noise' else 1.0
-
-    def extra_faults(self):
-        return ()
+            e.noise_scale = self.noise_scale
+        for o in self.pubs:
+            o.held = list(o.batch) if fault == 'freeze' else None
+            o.held_i = (None, 0)
 
     def on_fault(self, fault, value):
-        """Sensor-specific faults; return True when ``fault`` is one of them."""
-        return False
+        """A sensor's own fault set (or 'none': cleared); read ``self.fault`` in measure."""
 
     def reset(self):
-        Plugin.reset(self)
+        Device.reset(self)
         for e in self.errors.values():
             e.reset()
-        self.last_value = None
 
-    def shutdown(self):
-        for s in self.subs:
-            s.unregister()
-        for s in self.srvs:
-            s.shutdown()
-        for p in self.pubs:
-            p.unregister()
-        self.subs, self.srvs = [], []
+
+def inject_fault(plugins, fault, value=0.0):
+    """Set ``fault`` on the sensors among ``plugins`` (those a /gazebo/set_sensor_fault call
+    names: a topic name may match an output device's too, e.g. ``temperature``); ValueError
+    saying why not when none is a sensor (an output device, a camera, a video texture) or a
+    sensor refuses it. Nothing is set unless every sensor takes it."""
+    sensors = [p for p in plugins if isinstance(p, Sensor)]
+    if not sensors:
+        raise ValueError('%s: not a sensor of the sensor layer (%s): faults apply to sensors'
+                         % (', '.join(p.label for p in plugins),
+                            ', '.join(type(p).__name__ for p in plugins)))
+    done = []
+    try:
+        for p in sensors:
+            old = (p.fault, p.fault_value)
+            p.set_fault(fault, value)
+            done.append((p, old))
+    except ValueError:
+        for p, old in done:
+            p.set_fault(*old)
+        raise
+
+
+def _restamped(held, new):
+    """A copy of the held message with the new message's stamp."""
+    m = copy.deepcopy(held)
+    h = getattr(m, 'header', None)
+    nh = getattr(new, 'header', None)
+    if h is not None and nh is not None:
+        h.stamp = nh.stamp
+    return m
 
 
 class _Defaults(object):

@@ -21,7 +21,7 @@ import threading
 import cv2
 import numpy as np
 
-from ..transforms import Pose
+from ..transforms import Pose, quat_to_matrices
 from . import shapes
 from .context import get_context, linearize_depth
 
@@ -104,17 +104,8 @@ class CameraView(object):
 
 def _pose_matrices(pq):
     """(n, 4, 4) homogeneous matrices of n poses given as rows (x, y, z, qx, qy, qz, qw)."""
-    x, y, z, w = pq[:, 3], pq[:, 4], pq[:, 5], pq[:, 6]
     m = np.zeros((len(pq), 4, 4))
-    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    m[:, 0, 1] = 2 * (x * y - z * w)
-    m[:, 0, 2] = 2 * (x * z + y * w)
-    m[:, 1, 0] = 2 * (x * y + z * w)
-    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    m[:, 1, 2] = 2 * (y * z - x * w)
-    m[:, 2, 0] = 2 * (x * z - y * w)
-    m[:, 2, 1] = 2 * (y * z + x * w)
-    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    m[:, :3, :3] = quat_to_matrices(pq[:, 3:7])
     m[:, :3, 3] = pq[:, :3]
     m[:, 3, 3] = 1.0
     return m

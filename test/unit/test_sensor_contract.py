@@ -1,0 +1,293 @@
+"""The sensor contract (issue 17), over every registered plugin:
+
+* no sensor or actuator overrides ``update`` (the base owns it);
+* every fault kind is either applied to every output the plugin publishes -- ``drop``: none
+  publishes; ``freeze``: each sampled output repeats the message it had when the fault came,
+  event outputs stop; ``noise`` x10: every output carrying a noisy value publishes other data
+  than without it; a sensor's own fault (the GPS's ``no_fix``): every output changes -- or
+  refused with a ValueError naming the plugin and the reason;
+* every sensor and actuator loads in both URDF syntaxes (Gazebo classic ``<plugin>`` and the
+  thesis's 2011 ``<controller:...>``), in the robot namespace given, and a bad parameter is
+  one error line naming the plugin, the model and the parameter, while the plugin loads.
+
+The fault runs: the office world and the phone just outside the office door (outdoors: a
+GPS fix, the heart-rate belt in range), seeded; at T_FAULT every sensor gets the fault; a
+touch, a button press, a thermal command follow, and at T_NFC the phone is held to the NFC
+poster. Each run is compared with the same run without the fault.
+"""
+import logging
+import os
+
+import pytest
+
+from sim_world import plugins as registry
+from sim_world.plugins.device import Actuator, Device
+from sim_world.plugins.device import content as _content
+from sim_world.plugins.sensor import FAULTS, Sensor, inject_fault
+from sim_world.transforms import Pose
+from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.world import World
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+T_FAULT, T_NFC, T_END = 0.6, 1.695, 2.2     # T_NFC: 5 ms before an NFC tick
+NOISE = 10.0
+
+#: every plugin of the repository's plugin modules (not test doubles registered by tests)
+CLASSES = sorted(set(c for c in (registry.lookup(n) for n in registry.registered_names())
+                     if c.__module__ in registry.plugin_modules()), key=lambda c: c.__name__)
+DEVICES = [c for c in CLASSES if issubclass(c, Device)]
+OWN = sorted(set((c.__name__, f) for c in CLASSES if issubclass(c, Sensor)
+                 for f in c.FAULTS_OWN))
+
+
+def content(msg):
+    """What a message says, header aside, comparable (NaN equals NaN)."""
+    return repr(_content(msg))
+
+
+def _run(fault=None, value=0.0):
+    """{(class, output key): [(sim time, content)] after T_FAULT}, {class: refusal text},
+    {(class, output key): contents of its last tick's messages before T_FAULT},
+    {class: outputs}."""
+    w = World(physics='ode', seed=11)
+    w.load_world_file(OFFICE)
+    w.add_model(load_urdf_file(PHONE), pose=Pose((6.8, -3.0, 1.0)))
+    for name, ps in w.plugins.items():        # cameras and video textures: not stepped here
+        for p in ps:
+            if not isinstance(p, Device):
+                p.shutdown()
+        w.plugins[name] = [p for p in ps if isinstance(p, Device)]
+    every = [p for ps in w.plugins.values() for p in ps]
+    for p in every:
+        p.force = True
+    by = dict((type(p).__name__, p) for p in every if p.model.name == 'mobile_device')
+    try:
+        w.step(int(round(T_FAULT / w.step_size)))
+        before = dict(((type(p).__name__, o.key), [content(m) for m in o.batch])
+                      for p in every for o in p.pubs if o.batch)
+        counts = dict((id(o), o.count) for p in every for o in p.pubs)
+        last = dict((id(o), o.last) for p in every for o in p.pubs)
+        refused = {}
+        if fault is not None:
+            for p in every:
+                if not isinstance(p, Sensor) or (fault not in FAULTS and
+                                                  fault not in p.FAULTS_OWN):
+                    continue
+                try:
+                    p.set_fault(fault, value)
+                except ValueError as e:
+                    refused[type(p).__name__] = str(e)
+        seen = {}
+        for p in every:
+            for o in p.pubs:
+                orig = o.publish
+
+                def rec(msg, o=o, orig=orig, p=p):
+                    seen.setdefault((type(p).__name__, o.key), []).append(
+                        (w.sim_time, content(msg)))
+                    orig(msg)
+                o.publish = rec
+        by['TouchScreen'].inject_touch(100, 200, 0.05)
+        by['TouchScreen'].press_button('power', 0.03)
+        by['ThermalDisplay'].command(40.0)
+        w.step(int(round((T_NFC - T_FAULT) / w.step_size)))
+        w.set_state('mobile_device', Pose((2.2, 0.97, 1.3), (-0.7071, 0, 0, 0.7071)))
+        w.step(int(round((T_END - T_NFC) / w.step_size)))
+        for p in every:                        # outputs declared after T_FAULT (devices)
+            for o in p.pubs:
+                if id(o) not in counts:
+                    counts[id(o)] = 0
+        outputs = dict((type(p).__name__, p.outputs) for p in every
+                       if p.model.name == 'mobile_device' or type(p).__name__ not in by)
+        return seen, refused, before, outputs
+    finally:
+        w.shutdown()
+
+
+_RUNS = {}
+
+
+def run(fault=None, value=0.0):
+    key = (fault, value)
+    if key not in _RUNS:
+        _RUNS[key] = _run(fault, value)
+    return _RUNS[key]
+
+
+def _instances():
+    """{class name: [output keys]} of the plugins in the fault runs (the phone, the office)."""
+    w = World(physics='ode', seed=11)
+    try:
+        w.load_world_file(OFFICE)
+        w.add_model(load_urdf_file(PHONE), pose=Pose((6.8, -3.0, 1.0)))
+        out = {}
+        for ps in w.plugins.values():
+            for p in ps:
+                out.setdefault(type(p).__name__, p)
+        return dict((n, (type(p), getattr(p, 'outputs', {}), p)) for n, p in out.items())
+    finally:
+        w.shutdown()
+
+
+INSTANCES = _instances()
+
+
+def _outputs_of(name, seen):
+    return dict((k, v) for (c, k), v in seen.items() if c == name)
+
+
+# -- structure ----------------------------------------------------------------------------------
+@pytest.mark.parametrize('cls', DEVICES, ids=lambda c: c.__name__)
+def test_no_plugin_overrides_update(cls):
+    base = Sensor if issubclass(cls, Sensor) else Actuator
+    assert issubclass(cls, (Sensor, Actuator))
+    for k in cls.__mro__[:cls.__mro__.index(base)]:
+        assert 'update' not in vars(k), '%s overrides update()' % k.__name__
+
+
+@pytest.mark.parametrize('cls', CLASSES, ids=lambda c: c.__name__)
+def test_every_registered_plugin_is_in_the_fault_runs(cls):
+    """A new plugin joins the fault contract by being in the phone or the office world."""
+    assert cls.__name__ in INSTANCES
+
+
+# -- faults -------------------------------------------------------------------------------------
+PAIRS = [(c.__name__, f) for c in CLASSES for f in ('drop', 'freeze', 'noise')]
+
+
+def _accepted_or_refused(name, fault, refused):
+    """True when the fault was applied; a refusal must say which plugin and why."""
+    cls, _, plugin = INSTANCES[name]
+    if not issubclass(cls, Sensor):
+        # not on the sensor layer: the fault service refuses it
+        with pytest.raises(ValueError) as e:
+            inject_fault([plugin], fault, NOISE)
+        assert name in str(e.value) and 'not a sensor' in str(e.value)
+        return False
+    if name in refused:
+        text = refused[name]
+        assert name in text and ('no noise' in text or 'publishes no topic' in text), text
+        return False
+    return True
+
+
+@pytest.mark.parametrize('name, fault', PAIRS)
+def test_fault_applied_to_every_output_or_refused(name, fault):
+    base, _, before, outs = run()
+    got, refused, _, _ = run(fault, NOISE if fault == 'noise' else 0.0)
+    if not _accepted_or_refused(name, fault, refused):
+        return
+    outputs = outs[name]
+    assert outputs, '%s has no outputs but took fault %s' % (name, fault)
+    b, g = _outputs_of(name, base), _outputs_of(name, got)
+    assert b, 'the fault runs do not exercise %s: nothing published after the fault time' % name
+    for key, seq in b.items():
+        out = outputs.get(key)
+        after = g.get(key, [])
+        if fault == 'drop':
+            assert after == [], '%s %s published under drop' % (name, key)
+        elif fault == 'freeze':
+            if out is not None and out.event:
+                assert after == [], '%s %s: events under freeze' % (name, key)
+            else:
+                assert after, '%s %s stopped under freeze' % (name, key)
+                ticks = {}
+                for t, c in after:
+                    ticks.setdefault(t, []).append(c)
+                held = before.get((name, key)) or ticks[min(ticks)]
+                assert all(cs == held for cs in ticks.values()), \
+                    '%s %s moved under freeze' % (name, key)
+        else:
+            if out is not None and not out.noisy:
+                continue
+            assert [c for _, c in after] != [c for _, c in seq], \
+                '%s %s: noise x%g changed nothing' % (name, key, NOISE)
+
+
+@pytest.mark.parametrize('name, fault', OWN)
+def test_own_fault_changes_every_output(name, fault):
+    base = run()[0]
+    got, refused = run(fault)[:2]
+    assert name not in refused
+    b, g = _outputs_of(name, base), _outputs_of(name, got)
+    assert b
+    for key, seq in b.items():
+        assert [c for _, c in g.get(key, [])] != [c for _, c in seq], \
+            '%s %s: fault %s changed nothing' % (name, key, fault)
+
+
+def test_a_name_matching_a_sensor_and_an_output_device_faults_the_sensor():
+    """``temperature`` names the ambient sensor's topic and the thermal display's command
+    topic (.../thermal_display/temperature): the fault goes to the sensor."""
+    w = World(physics='ode', seed=1)
+    try:
+        w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
+        found = w.find_plugins('mobile_device', 'temperature')
+        assert sorted(type(p).__name__ for p in found) == ['Ambient', 'ThermalDisplay']
+        inject_fault(found, 'drop')
+        assert [p.fault for p in found if isinstance(p, Sensor)] == ['drop']
+        led = w.find_plugins('mobile_device', 'led')
+        with pytest.raises(ValueError) as e:
+            inject_fault(led, 'drop')
+        assert 'Led' in str(e.value) and 'not a sensor' in str(e.value)
+    finally:
+        w.shutdown()
+
+
+def test_unknown_fault_is_refused_with_the_known_ones():
+    cls = INSTANCES['ImuPlugin'][0]
+    w = World(physics='ode', seed=1)
+    try:
+        w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
+        imu = next(p for p in w.plugins['mobile_device'] if isinstance(p, cls))
+        with pytest.raises(ValueError) as e:
+            inject_fault([imu], 'smoke')
+        assert "'smoke'" in str(e.value) and 'drop, freeze, noise' in str(e.value)
+        with pytest.raises(ValueError):
+            inject_fault([imu], 'noise', -1)
+        assert imu.fault == 'none'
+    finally:
+        w.shutdown()
+
+
+# -- both syntaxes, one line per bad parameter ---------------------------------------------------
+def _one_link(plugin_xml, name='r'):
+    return parse_urdf('''<robot name="%s"
+        xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
+      <link name="base"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/>
+      </inertial><visual><geometry><box size="0.1 0.06 0.01"/></geometry></visual>
+      <collision><geometry><box size="0.1 0.06 0.01"/></geometry></collision></link>
+      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
+      <gazebo>%s</gazebo></robot>''' % (name, plugin_xml))
+
+
+SYNTAXES = {
+    'classic': '<plugin name="p" filename="%s">%s</plugin>',
+    '2011': '<controller:x name="p" plugin="%s">%s</controller:x>',
+}
+
+
+@pytest.mark.parametrize('syntax', sorted(SYNTAXES))
+@pytest.mark.parametrize('cls', DEVICES, ids=lambda c: c.__name__)
+def test_loads_in_both_syntaxes_and_a_bad_parameter_is_one_line(cls, syntax, caplog):
+    lib = cls.names[0]
+    w = World(physics='ode', seed=1)
+    try:
+        with caplog.at_level(logging.ERROR):
+            w.add_model(_one_link(SYNTAXES[syntax] % (
+                lib, '<updateRate>7</updateRate><updateOffset>-1</updateOffset>'
+                '<robotNamespace>/phone</robotNamespace><data>U:http://x</data>')),
+                pose=Pose((0, 0, 1)))
+        lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
+        assert len(lines) == 1, lines
+        assert "updateOffset must be a number >= 0, got '-1'" in lines[0]
+        assert lib in lines[0] and 'model r' in lines[0]
+        (p,) = w.plugins['r']
+        assert isinstance(p, cls) and p.p.updateRate == 7.0 and p.timer.offset == 0.0
+        for o in p.pubs:
+            assert o.topic.startswith('/phone/')
+        w.step(200)                            # and it runs
+    finally:
+        w.shutdown()

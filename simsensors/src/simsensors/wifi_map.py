@@ -101,7 +101,6 @@ def main(argv=None):
     """``rosrun mobile_device_sim wifi_map``: exit 0 with the PNG written, 2 on bad input
     (one line naming it)."""
     from sim_world.world import World
-    from .wifi import transmitters
     ap = argparse.ArgumentParser(prog='wifi_map', description='WiFi received-power map (PNG)')
     ap.add_argument('--world', default=_default_world())
     ap.add_argument('--bssid', default=None, help='access point (default: the first)')
@@ -136,7 +135,7 @@ def main(argv=None):
         except Exception as e:  # noqa: BLE001 - one line naming the file
             print('wifi_map: cannot load world %s: %s' % (a.world, e), file=sys.stderr)
             return 2
-        aps = transmitters(w, 'wifi')
+        aps = w.transmitters('wifi')
         if not aps:
             print('wifi_map: world %s has no access point (libgazebo_ros_wifi_ap.so)'
                   % a.world, file=sys.stderr)

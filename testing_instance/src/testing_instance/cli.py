@@ -37,6 +37,20 @@ def _parser(prog):
                    help='run the scenarios N at a time, each with its own master port')
     p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
                    '(0-based; a CI matrix or several machines)')
+    # sweeps and the Ray farm (testing_instance.sweep / .cluster, issue 21)
+    p.add_argument('--sweep', action='store_true', help='run every concrete run of the '
+                   'files\' sweep: blocks (a pass-rate summary, a command per failure)')
+    p.add_argument('--set', action='append', metavar='NAME=VALUE', help='set a parameter '
+                   '(repeatable); with --sweep it pins that parameter')
+    p.add_argument('--max-runs', type=int, dest='max_runs', metavar='N',
+                   help='refuse sweeps larger than N runs (default 10000)')
+    p.add_argument('--out', metavar='DIR', help='sweep: summary.txt, summary.json, '
+                   'sweep.xml and each run\'s report in logs/')
+    p.add_argument('--json', metavar='FILE', help='sweep: the summary as JSON')
+    p.add_argument('--cluster', metavar='ADDRESS', help='run on a Ray cluster (host:port, '
+                   'ray://host:port, or auto = $RAY_ADDRESS / the local cluster)')
+    p.add_argument('--cpus-per-run', type=float, default=1.0, dest='cpus_per_run',
+                   metavar='C', help='--cluster: CPUs each run reserves (default 1)')
     p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
     p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
     return p
@@ -76,6 +90,9 @@ def main(argv=None, prog='run_scenario'):
     if a.gtest_output and a.gtest_output.startswith('xml:') and not a.junit:
         a.junit = a.gtest_output[4:]
     files = _expand(a.files)
+    if a.sweep or a.cluster:
+        from . import sweep
+        return sweep.main(files, a)
     if a.shard:
         files = _shard(files, a.shard)
     if not files:
@@ -83,8 +100,17 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    res = run_file(files[0], seed=a.seed, record=_record_arg(a.record), junit=a.junit,
-                   real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
+    values = None
+    if a.set:
+        from .params import declared, load_raw, parse_set
+        from .scenario import ScenarioError
+        try:
+            values = parse_set(a.set, declared(load_raw(files[0]), files[0]), files[0])
+        except ScenarioError as e:
+            print('ERROR ' + '\n  '.join(e.problems))
+            return EXIT_ERROR
+    res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
+                   junit=a.junit, real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
                    report=a.report)
     if a.text:          # rostest --text: the summary a rosunit test node prints
         errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])

@@ -1043,8 +1043,9 @@ def _set_field(msg, path, value):
 def run_file(path, **kw):
     """Load and run one scenario file; ScenarioError -> an ERROR result (exit code 2)."""
     out = kw.get('out') or (lambda s: (sys.stdout.write(s + '\n'), sys.stdout.flush()))
+    values = kw.pop('values', None)       # --set NAME=VALUE (testing_instance.params)
     try:
-        sc = load(path)
+        sc = load(path, values=values)
     except ScenarioError as e:
         out('ERROR scenario file %s is invalid:' % path)
         for p in e.problems:

@@ -164,6 +164,7 @@ class Scenario(object):
         self.timeline = list(data.get('timeline') or [])
         self.expect = list(data.get('expect') or [])
         self.record = list(data.get('record') or [])
+        self.params = dict(getattr(data, 'param_values', None) or {})
         for i, e in enumerate(self.timeline):
             e.setdefault('id', 'event%d' % i)
         for i, e in enumerate(self.expect):
@@ -176,16 +177,16 @@ class Scenario(object):
         return os.path.normpath(os.path.join(self.dir, p))
 
 
-def load(path):
+def load(path, values=None):
     try:
         with open(path) as f:
             text = f.read()
     except OSError as e:
         raise ScenarioError(['%s: cannot read the scenario file: %s' % (path, e.strerror)])
-    return loads(text, path)
+    return loads(text, path, values)
 
 
-def loads(text, path='<scenario>'):
+def loads(text, path='<scenario>', values=None):
     try:
         data = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as e:
@@ -193,6 +194,8 @@ def loads(text, path='<scenario>'):
         line = mark.line + 1 if mark is not None else 0
         what = getattr(e, 'problem', None) or str(e)
         raise ScenarioError(['%s:%d: not valid YAML: %s' % (path, line, what)])
+    from .params import concrete          # parameters: / sweep: / ${name} (issue 21)
+    data = concrete(data, path, values)
     problems = validate(data, path)
     if problems:
         raise ScenarioError(problems)

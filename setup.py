@@ -17,4 +17,8 @@ packages = [p for pkgs in STACKS.values() for p in pkgs]
 package_dir = {p: '%s/src/%s' % (stack, p.replace('.', '/'))
                for stack, pkgs in STACKS.items() for p in pkgs}
 
-setup(**generate_distutils_setup(packages=packages, package_dir=package_dir))
+# pytest collects scenario files (testing_instance.pytest_plugin; tools/setup writes the
+# same entry point into the devel space)
+setup(**generate_distutils_setup(
+    packages=packages, package_dir=package_dir,
+    entry_points={'pytest11': ['scenarios = testing_instance.pytest_plugin']}))

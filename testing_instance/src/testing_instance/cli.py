@@ -51,6 +51,8 @@ def _parser(prog):
                    'ray://host:port, or auto = $RAY_ADDRESS / the local cluster)')
     p.add_argument('--cpus-per-run', type=float, default=1.0, dest='cpus_per_run',
                    metavar='C', help='--cluster: CPUs each run reserves (default 1)')
+    p.add_argument('--port', type=int, metavar='P', help='master port of this run (default: a '
+                   'free one; another is taken when P is busy)')
     p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
     p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
     return p
@@ -111,7 +113,7 @@ def main(argv=None, prog='run_scenario'):
             return EXIT_ERROR
     res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
                    junit=a.junit, real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
-                   report=a.report)
+                   report=a.report, port=a.port)
     if a.text:          # rostest --text: the summary a rosunit test node prints
         errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])
         fails = [v.name for v in res.verdicts if not v.passed and not v.error]

@@ -1,0 +1,83 @@
+"""Sweeps through pytest and run_scenario (issue 21), real worlds: the examples' concrete
+runs give the same verdicts through `pytest` (serially and with `-n 2`, each xdist worker
+with its own master ports) as through `run_scenario --sweep`; the FAIL lines and the
+reproduce command are in pytest's report and JUnit; -x stops after the first failure.
+A small subset (compass_declination at 0 and 10 degrees: one pass, one fail) keeps it short.
+"""
+import json
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+EX = os.path.join(ROOT, 'testing_instance', 'examples')
+NODE = os.path.join(ROOT, 'testing_instance', 'nodes', 'run_scenario')
+DECL = os.path.join(EX, 'compass_declination.yaml')
+SUBSET = 'not 5] and not 20]'           # declination 0 and 10
+
+pytestmark = pytest.mark.rostest
+
+
+def env():
+    e = dict(os.environ)
+    e.pop('ROS_MASTER_URI', None)
+    e.setdefault('ROS_HOSTNAME', 'localhost')
+    return e
+
+
+def pytest_run(*args):
+    p = subprocess.run([sys.executable, '-m', 'pytest', '-p', 'no:cacheprovider'] +
+                       [str(a) for a in args], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, cwd=ROOT, timeout=600, env=env())
+    return p.returncode, p.stdout
+
+
+def junit_cases(path):
+    out = {}
+    for tc in ET.parse(str(path)).getroot().iter('testcase'):
+        props = {p.get('name'): p.get('value') for p in tc.iter('property')}
+        status = 'FAIL' if tc.find('failure') is not None else \
+            'ERROR' if tc.find('error') is not None else 'PASS'
+        out[tc.get('name')] = (status, props, tc)
+    return out
+
+
+def test_pytest_serial_and_xdist_agree_with_run_scenario(tmp_path):
+    # run_scenario --sweep: --shard 0/2 of [0, 5, 10, 20] is 0 and 10
+    p = subprocess.run([sys.executable, NODE, DECL, '--sweep', '--shard', '0/2', '--jobs', '2',
+                        '--json', str(tmp_path / 's.json')], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
+    assert p.returncode == 1, p.stdout
+    ref = {r['name']: r['status'] for r in json.loads((tmp_path / 's.json').read_text())['runs']}
+    assert ref == {'compass_declination[declination=0]': 'PASS',
+                   'compass_declination[declination=10]': 'FAIL'}, p.stdout
+
+    rc, out = pytest_run(DECL, '-k', SUBSET, '--junitxml', tmp_path / 'serial.xml')
+    assert rc == 1, out
+    serial = junit_cases(tmp_path / 'serial.xml')
+    assert {k: v[0] for k, v in serial.items()} == ref, out
+    fail = serial['compass_declination[declination=10]'][2].find('failure').text
+    assert 'FAIL points_to_true_north: expected always /compass_app/azimuth.data 338.5 +- 8' \
+        in fail
+    assert fail.rstrip().endswith('compass_declination.yaml --set declination=10 --seed 4')
+    assert 'FAIL points_to_true_north: expected always' in out    # the terminal report
+    assert int(serial['compass_declination[declination=0]'][1]['master_port']) in range(
+        20000, 21000)
+
+    rc, out = pytest_run(DECL, '-k', SUBSET, '-n', '2', '--junitxml', tmp_path / 'xdist.xml')
+    assert rc == 1, out
+    xd = junit_cases(tmp_path / 'xdist.xml')
+    assert {k: v[0] for k, v in xd.items()} == ref, out
+    ports = [int(v[1]['master_port']) for v in xd.values()]
+    # worker gwN takes its master ports from 20000 + 1000 (N + 1) ...
+    assert all(21000 <= port < 23000 for port in ports), ports
+    assert len(set(ports)) == 2, ports
+
+    # -x: the first failure stops the session (declination 5 fails, 20 is not run)
+    rc, out = pytest_run(DECL, '-k', '5] or 20]', '-x')
+    assert rc == 1 and '1 failed' in out and 'passed' not in out.splitlines()[-1], out
+    assert 'stopping after 1 failures' in out, out

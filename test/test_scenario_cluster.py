@@ -1,0 +1,108 @@
+"""The farm on Ray (issue 21), on a local two-node Ray cluster (ray.cluster_utils: two
+raylets with one CPU each on this machine): a sweep of a real example runs on both nodes and
+gives the same summary as a local --jobs 2 farm; a node killed mid-sweep has its run retried
+on the other node, counted once and named as retried; an unreachable address is one line,
+exit 2, within seconds."""
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+NODE = os.path.join(ROOT, 'testing_instance', 'nodes', 'run_scenario')
+DECL = os.path.join(ROOT, 'testing_instance', 'examples', 'compass_declination.yaml')
+
+ray = pytest.importorskip('ray', reason='Ray is installed by tools/setup')
+pytestmark = pytest.mark.rostest
+
+
+def env():
+    e = dict(os.environ)
+    e.pop('ROS_MASTER_URI', None)
+    e.pop('RAY_ADDRESS', None)
+    e.setdefault('ROS_HOSTNAME', 'localhost')
+    return e
+
+
+def sweep_cmd(out, *extra):
+    # declination 0 and 10 (--shard 0/2 of 0, 5, 10, 20): one pass, one fail
+    return [sys.executable, NODE, DECL, '--sweep', '--shard', '0/2', '--out', str(out)] + \
+        list(extra)
+
+
+def statuses(out):
+    s = json.loads((out / 'summary.json').read_text())
+    return s, {r['name']: r['status'] for r in s['runs']}
+
+
+@pytest.fixture
+def cluster():
+    """A head node without CPUs (the GCS; no runs) and two worker nodes with one CPU each.
+    The submitter's driver attaches to one of the three raylets of this machine: the test
+    kills a worker it is not attached to (a driver whose own raylet dies loses its tasks,
+    on any Ray cluster)."""
+    from ray.cluster_utils import Cluster
+    c = Cluster(initialize_head=True, head_node_args={'num_cpus': 0})
+    workers = [c.add_node(num_cpus=1), c.add_node(num_cpus=1)]
+    c.wait_for_nodes()
+    yield c, workers, c.address
+    c.shutdown()
+
+
+def test_unreachable_cluster_is_one_line(tmp_path):
+    t0 = time.monotonic()
+    p = subprocess.run(sweep_cmd(tmp_path / 'x', '--cluster', 'localhost:1'),
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=120, env=env())
+    assert p.returncode == 2, p.stdout
+    lines = [ln for ln in p.stdout.splitlines() if ln.strip()]
+    assert lines == [ln for ln in lines if ln.startswith('ERROR')] and len(lines) == 1, p.stdout
+    assert 'cannot reach the Ray cluster at localhost:1' in p.stdout
+    assert time.monotonic() - t0 < 30
+
+
+def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
+    c, workers, address = cluster
+    local = tmp_path / 'local'
+    p = subprocess.run(sweep_cmd(local, '--jobs', '2'), stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
+    assert p.returncode == 1, p.stdout
+    _, ref = statuses(local)
+    assert sorted(ref.values()) == ['FAIL', 'PASS'], ref
+
+    both = tmp_path / 'both'
+    p = subprocess.run(sweep_cmd(both, '--cluster', address, '--junit', tmp_path / 'j'),
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=600, env=env())
+    assert p.returncode == 1, p.stdout
+    s, got = statuses(both)
+    assert got == ref, p.stdout
+    assert s['mode'] == 'cluster' and len(s['nodes']) == 2, s['nodes']     # both nodes ran
+    assert s['retried'] == [] and s['total'] == 2
+    assert sorted(os.listdir(tmp_path / 'j')) == sorted(
+        [r['id'] + '.xml' for r in s['runs']] + ['sweep.xml'])            # the local layout
+
+    # a node killed mid-sweep: its run is retried on the other node, counted once
+    killed = tmp_path / 'killed'
+    proc = subprocess.Popen(sweep_cmd(killed, '--cluster', address), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=env())
+    first = proc.stdout.readline()
+    m = re.search(r'submitted through node (\w+)', first)
+    assert m, first
+    victim = [w for w in workers if not w.node_id.startswith(m.group(1))][0]
+    time.sleep(8.0)                       # both runs under way (a run takes ~10-25 s here)
+    c.remove_node(victim, allow_graceful=False)
+    text, _ = proc.communicate(timeout=600)
+    text = first + text
+    assert proc.returncode == 1, text
+    assert (killed / "summary.json").exists(), text
+    s, got = statuses(killed)
+    assert got == ref, text
+    assert s['total'] == 2 and len(s['runs']) == 2
+    assert len(s['retried']) == 1, text
+    assert 'retried after a node died (counted once)' in text

@@ -18,6 +18,7 @@ import sys
 import threading
 
 import rospy
+import rospy.core
 
 from .gazebo_api import GazeboRosApi, run_loop
 from .model import ModelError
@@ -92,6 +93,13 @@ def main(argv=None):
             run_loop(world, api, real_time_factor=rtf,
                      publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
         except Exception as e:  # noqa: BLE001 - say what stopped the world, then stop the node
+            if rospy.is_shutdown() or rospy.core.is_shutdown_requested():
+                # the node is shutting down (Ctrl-C, roslaunch's end, rostest's teardown)
+                # while a step was publishing: rospy closed the topic under it. A normal end,
+                # not a failure (it used to print a FATAL line at every tools/demo --exit).
+                rospy.logdebug('sim_world: world loop ended with the node (%s: %s)'
+                               % (type(e).__name__, e))
+                return
             failed.append(e)
             rospy.logfatal('sim_world: the world loop stopped: %s: %s' % (type(e).__name__, e))
             rospy.signal_shutdown('world loop failed')

@@ -51,6 +51,9 @@ def _parser(prog):
                    'ray://host:port, or auto = $RAY_ADDRESS / the local cluster)')
     p.add_argument('--cpus-per-run', type=float, default=1.0, dest='cpus_per_run',
                    metavar='C', help='--cluster: CPUs each run reserves (default 1)')
+    p.add_argument('--check', action='store_true', help='validate the files (and every '
+                   'concrete run of their sweeps) without starting anything: exit 0 valid, '
+                   '2 invalid with FILE:LINE messages')
     p.add_argument('--port', type=int, metavar='P', help='master port of this run (default: a '
                    'free one; another is taken when P is busy)')
     p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
@@ -75,6 +78,38 @@ def _expand(items):
     return files
 
 
+def check(files, sets=(), max_runs=None, out=print):
+    """run_scenario --check FILE...: validate as a linter would (roslaunch --files style),
+    nothing started. Each file: every concrete run of its sweep is substituted and validated.
+    Exit 0 when all are valid, 2 otherwise (the FILE:LINE messages printed)."""
+    from .scenario import ScenarioError
+    from .sweep import plan
+    if not files:
+        out('ERROR no scenario files given')
+        return EXIT_ERROR
+    bad = 0
+    for f in files:
+        try:
+            if not os.path.isfile(f):
+                raise ScenarioError(['%s: no such file' % f])
+            runs = plan([f], sweep=True, sets=sets, max_runs=max_runs)
+            from .scenario import load
+            for r in runs:
+                load(f, values=dict(r.values) or None)
+        except ScenarioError as e:
+            bad += 1
+            out('INVALID %s' % f)
+            for p in e.problems:
+                out('  ' + p)
+        except Exception as e:  # noqa: BLE001 - a validator bug must not hide the file
+            bad += 1
+            out('INVALID %s' % f)
+            out('  %s: internal error while checking: %s: %s' % (f, type(e).__name__, e))
+        else:
+            out('OK %s (%d run%s)' % (f, len(runs), '' if len(runs) == 1 else 's'))
+    return EXIT_ERROR if bad else EXIT_PASS
+
+
 def _shard(files, spec):
     try:
         i, n = (int(x) for x in spec.split('/'))
@@ -92,6 +127,8 @@ def main(argv=None, prog='run_scenario'):
     if a.gtest_output and a.gtest_output.startswith('xml:') and not a.junit:
         a.junit = a.gtest_output[4:]
     files = _expand(a.files)
+    if a.check:
+        return check(files, sets=a.set or (), max_runs=a.max_runs)
     if a.sweep or a.cluster:
         from . import sweep
         return sweep.main(files, a)

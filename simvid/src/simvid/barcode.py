@@ -23,7 +23,7 @@ from sim_world.logonce import LogOnce
 
 from .imageconv import UnsupportedEncoding, image_to_array
 
-__all__ = ['BarcodeError', 'symbol_name', 'to_gray', 'decode', 'locate', 'format_barcode',
+__all__ = ['main', 'BarcodeError', 'symbol_name', 'to_gray', 'decode', 'locate', 'format_barcode',
            'Throttle', 'BarcodeReader']
 
 log = logging.getLogger('simvid.barcode')
@@ -186,3 +186,29 @@ class BarcodeReader(object):
             if self.throttle.allow(text, now):
                 out.append(text)
         return out
+
+
+def main():
+    """``rosrun mobile_device_sim barcode_reader`` (the whole node; the script in
+    simvid/nodes/ only calls it)."""
+    import time
+    import rospy
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import String
+    rospy.init_node('barcode_reader')
+    image_topic = rospy.get_param('~image_topic', 'image')
+    barcode_topic = rospy.get_param('~barcode_topic', '/barcode')
+    throttle = float(rospy.get_param('~throttle_repeated_barcodes', 2.0))
+    reader = BarcodeReader(throttle=throttle, logger=rospy.logerr)
+    pub = rospy.Publisher(barcode_topic, String, queue_size=10)
+
+    def on_image(msg):
+        for text in reader.process(msg, time.monotonic()):
+            rospy.loginfo('barcode: %s', text)
+            pub.publish(String(data=text))
+
+    # queue_size=1: decode the newest frame, drop the ones zbar could not keep up with
+    rospy.Subscriber(image_topic, Image, on_image, queue_size=1, buff_size=2 ** 24)
+    rospy.loginfo('barcode_reader: %s -> %s (throttle %.2f s)',
+                  rospy.resolve_name(image_topic), rospy.resolve_name(barcode_topic), throttle)
+    rospy.spin()

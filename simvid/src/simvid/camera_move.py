@@ -14,7 +14,7 @@ import numpy as np
 from sim_world.logonce import LogOnce
 from sim_world.transforms import Pose
 
-__all__ = ['movement_from_axes', 'apply_movement', 'CameraMove']
+__all__ = ['main', 'movement_from_axes', 'apply_movement', 'CameraMove']
 
 
 def movement_from_axes(axes, linear_scaler=100.0, angular_scaler=100.0):
@@ -103,3 +103,20 @@ class CameraMove(object):
             return
         self._errors.ok()
         self.moves += 1
+
+
+def main():
+    """``rosrun mobile_device_sim camera_move`` (the whole node; the script in
+    simvid/nodes/ only calls it)."""
+    import rospy
+    rospy.init_node('camera_move')
+    try:
+        CameraMove(joy_topic=rospy.get_param('~joy_topic', '/spacenav/joy'),
+                   model_name=rospy.get_param('~model_name', 'flycam'),
+                   linear_scaler=rospy.get_param('~linear_scaler', 100.0),
+                   angular_scaler=rospy.get_param('~angular_scaler', 100.0))
+    except ValueError as e:
+        rospy.logfatal('camera_move: %s', e)
+        return 1
+    rospy.spin()
+    return 0

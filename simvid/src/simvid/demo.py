@@ -11,7 +11,7 @@ import cv2
 
 from .imageconv import UnsupportedEncoding, image_to_rgb
 
-__all__ = ['DemoReport']
+__all__ = ['main', 'DemoReport']
 
 
 class DemoReport(object):
@@ -51,3 +51,38 @@ class DemoReport(object):
         self.printer('QR demo: wrote %s (%s, %dx%d)' % (path, topic, msg.width, msg.height))
         if finished:
             self.done.set()
+
+
+def main():
+    """``rosrun mobile_device_sim qr_demo_report`` (the whole node; the script in
+    simvid/nodes/ only calls it)."""
+    import os
+    import rospy
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import String
+    rospy.init_node('qr_demo_report')
+    out_dir = os.path.abspath(rospy.get_param('~out_dir', 'out'))
+    images = {rospy.get_param('~spectator_topic', '/flycam/image_raw'): 'qr_demo_spectator.png',
+              rospy.get_param('~camera_topic', '/mobile_device/image_raw'): 'qr_demo_phone_camera.png'}
+
+    def say(text):
+        print(text, flush=True)
+
+    report = DemoReport(out_dir, images, printer=say)
+    rospy.Subscriber(rospy.get_param('~barcode_topic', '/barcode'), String,
+                     lambda m: report.on_barcode(m.data))
+    for topic in images:
+        rospy.Subscriber(topic, Image, lambda m, t=topic: report.on_image(t, m), queue_size=1,
+                         buff_size=2 ** 24)
+    say('QR demo: waiting for the phone\'s app to decode the QR code on the desk ...')
+    exit_when_done = rospy.get_param('~exit_when_done', False)
+    while not rospy.is_shutdown():
+        if report.done.wait(0.2):
+            if exit_when_done:
+                say('QR demo: done')
+                rospy.signal_shutdown('done')
+                return 0
+            say('QR demo: running; Ctrl-C to stop. Try from another terminal: rosservice call '
+                '/gazebo/get_model_state \'{model_name: mobile_device, relative_entity_name: world}\'')
+            rospy.spin()
+    return 0

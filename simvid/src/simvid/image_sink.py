@@ -19,7 +19,7 @@ from simvid import imageconv
 from simvid.v4l2 import DeviceError, OutputDevice
 from simvid.yuv import Converter
 
-__all__ = ['PARAMS', 'FramePacer', 'DeviceWriter', 'ImageSink', 'OnceLogger']
+__all__ = ['main', 'PARAMS', 'FramePacer', 'DeviceWriter', 'ImageSink', 'OnceLogger']
 
 # thesis table 4.6, plus io_method and pixel_format
 PARAMS = {
@@ -221,3 +221,23 @@ class ImageSink(object):
                 self.step()
         finally:
             self.writer.close()
+
+
+def main():
+    """``rosrun mobile_device_sim image_sink`` (the whole node; the script in
+    simvid/nodes/ only calls it)."""
+    import rospy
+    from sensor_msgs.msg import Image
+    rospy.init_node('image_sink')
+    params = {k: rospy.get_param('~' + k, v) for k, v in PARAMS.items()}
+    try:
+        sink = ImageSink(params, log_error=rospy.logerr, log_info=rospy.loginfo)
+    except ValueError as e:
+        rospy.logfatal('image_sink: bad parameter: %s' % e)
+        return 2
+    rospy.Subscriber(sink.params['topic'], Image, sink.on_image, queue_size=1,
+                     buff_size=1 << 24, tcp_nodelay=True)
+    sink.spin(rospy.is_shutdown)
+    rospy.loginfo('image_sink: stopped after %(written)d frames (%(repeated)d repeated, '
+                  '%(images)d images, %(bad_images)d bad)' % sink.stats)
+    return 0

@@ -8,22 +8,14 @@ import csv
 import io
 import os
 import signal
-import socket
 import subprocess
 import time
 
 import pytest
+from sim_world.netutil import free_port as _free_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IMU = '/mobile_device/imu_sensor_data'
-
-
-def _free_port():
-    s = socket.socket()
-    s.bind(('localhost', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def _env(port):

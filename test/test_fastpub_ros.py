@@ -5,13 +5,13 @@ subscriber's queue, and drops the local connection once the subscriber unregiste
 camera stops rendering for nobody)."""
 import json
 import os
-import socket
 import subprocess
 import sys
 import textwrap
 import time
 
 import pytest
+from sim_world.netutil import free_port as _free_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -83,14 +83,6 @@ REMOTE = textwrap.dedent('''
     print(json.dumps(got[:40]), flush=True)
     time.sleep(8.0)                          # stay connected while the publisher checks
 ''')
-
-
-def _free_port():
-    s = socket.socket()
-    s.bind(('localhost', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 @pytest.fixture

@@ -10,7 +10,6 @@ build/test-output/rviz.png (docs/rviz.png is one)."""
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import time
 
@@ -20,17 +19,10 @@ import pytest
 from pyzbar import pyzbar
 
 from fixtures.xwd import read_xwd
+from sim_world.netutil import free_port as _free_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(ROOT, 'build', 'test-output')
-
-
-def _free_port():
-    s = socket.socket()
-    s.bind(('localhost', 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 def _panels_ok(rgb):

@@ -39,18 +39,11 @@ PUB_PY = os.path.join(HERE, 'tinyros', 'image_pub.py')
 
 sys.path.insert(0, os.path.join(HERE, 'tinyros'))
 import hostile_publisher as hp  # noqa: E402
+from sim_world.netutil import free_port as _free_port  # noqa: E402
 
 FRAME_RE = re.compile(r'^frame seq=(\d+) stamp=\S+ frame_id=(\S*) (\d+)x(\d+) (\S+) be=(\d) step=(\d+) '
                       r'bytes=(\d+) crc32=([0-9a-f]{8})$')
 SANITIZER_RE = re.compile(r'AddressSanitizer|runtime error:|LeakSanitizer|UndefinedBehaviorSanitizer')
-
-
-def _free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def _run(cmd, timeout=600, **kw):

@@ -2,7 +2,6 @@
 builders, and the console client/bridge against the console test server (auth, wrong token,
 KO once per kind, wall-clock rate limit, reconnects, no server)."""
 import math
-import socket
 import threading
 import time
 from types import SimpleNamespace as NS
@@ -17,18 +16,11 @@ from emulator_bridge.bridge import (AuthError, Bridge, ConsoleClient, ConsoleErr
                                     proximity_commands, tesla_to_microtesla, wifi_commands)
 from fixtures.emulator_console_testserver import ConsoleTestServer
 from sim_world.transforms import quat_from_rpy, quat_multiply
+from sim_world.netutil import free_port  # noqa: E402
 
 
 def v3(x, y, z):
     return NS(x=x, y=y, z=z)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
 
 
 class Log(object):

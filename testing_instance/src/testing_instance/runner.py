@@ -22,7 +22,6 @@ import math
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -33,6 +32,7 @@ import xml.etree.ElementTree as ET
 from . import motion
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
 from .scenario import ScenarioError, load
+from sim_world.netutil import free_port
 
 EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
@@ -81,12 +81,6 @@ class Result(object):
         return {'PASS': EXIT_PASS, 'FAIL': EXIT_FAIL}.get(self.status, EXIT_ERROR)
 
 
-def free_port():
-    s = socket.socket()
-    s.bind(('localhost', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def write_junit(result, path, classname='scenario'):

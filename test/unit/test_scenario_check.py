@@ -87,7 +87,7 @@ def _mutate(text, data):
 
 
 @settings(max_examples=int(os.environ.get('MDS_FUZZ_EXAMPLES', '150')), deadline=None,
-          derandomize=not os.environ.get('MDS_FUZZ_SEED'),
+          derandomize=not os.environ.get('MDS_FUZZ_SEED'), database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_fuzzed_scenarios_are_valid_or_named_problems(tmp_path, data):

@@ -14,17 +14,10 @@ import soundfile
 
 from mobile_device_sim.msg import AudioData
 from mobile_device_sim.srv import GetModelState
+from common import sim_sleep as wait_sim, wait_models  # noqa: E402
 
 A, B = 'mobile_device', 'mobile_device_b'
 SR = 16000
-
-
-def wait_sim(dt, timeout=120):
-    t_end = rospy.get_time() + dt
-    deadline = time.time() + timeout
-    while rospy.get_time() < t_end:
-        assert time.time() < deadline, 'sim time does not move'
-        time.sleep(0.02)
 
 
 def peak_hz(x, rate):
@@ -44,10 +37,7 @@ class AudioDevice(unittest.TestCase):
         rospy.init_node('audio_device_test')
         rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
         get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 90
-        while time.time() < deadline and not get(B, 'world').success:
-            time.sleep(0.2)
-        assert get(B, 'world').success, 'phone B was not spawned'
+        wait_models(get, [B])
         deadline = time.time() + 60
         while time.time() < deadline and not rospy.has_param('/audio_device/server'):
             time.sleep(0.1)

@@ -10,18 +10,11 @@ from geometry_msgs.msg import Pose, Twist
 
 from mobile_device_sim.msg import AudioData, ModelState
 from mobile_device_sim.srv import GetModelState, SetModelState
+from common import sim_sleep as wait_sim, wait_models  # noqa: E402
 
 A, B = 'mobile_device', 'mobile_device_b'
 FREQ = 1000.0
 SR = 16000
-
-
-def wait_sim(dt, timeout=120):
-    t_end = rospy.get_time() + dt
-    deadline = time.time() + timeout
-    while rospy.get_time() < t_end:
-        assert time.time() < deadline, 'sim time does not move'
-        time.sleep(0.02)
 
 
 class Audio(unittest.TestCase):
@@ -31,10 +24,7 @@ class Audio(unittest.TestCase):
         rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
         cls.get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
         cls.set = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
-        deadline = time.time() + 90
-        while time.time() < deadline and not cls.get(B, 'world').success:
-            time.sleep(0.2)
-        assert cls.get(B, 'world').success, 'phone B was not spawned'
+        wait_models(cls.get, [B])
         cls.chunks = []
         cls.sub = rospy.Subscriber('/%s/microphone/audio' % B, AudioData, cls.chunks.append,
                                    queue_size=1000)

@@ -2,25 +2,18 @@
 """rostest: the phone's LED, vibration motor and thermal display through rostopic pub
 (outputs.test)."""
 import subprocess
-import time
 import unittest
 
 import numpy as np
 import rospy
 import rostest
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, Temperature
 from std_msgs.msg import ColorRGBA
 
 from mobile_device_sim.srv import GetModelState
+from common import Recorder, sim_now, sim_sleep, wait_models  # noqa: E402
 
 NS = '/mobile_device/'
-
-
-class Recorder(object):
-    def __init__(self, topic, cls):
-        self.msgs = []
-        self.sub = rospy.Subscriber(topic, cls, self.msgs.append, queue_size=1000)
 
 
 def pub(topic, typ, yaml):
@@ -35,27 +28,11 @@ class Outputs(unittest.TestCase):
         rospy.init_node('outputs_test')
         rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
         get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 60
-        while time.time() < deadline and not get('mobile_device', 'world').success:
-            time.sleep(0.2)
+        wait_models(get, ['mobile_device'], timeout=60)
         cls.imu = Recorder(NS + 'imu_sensor_data', Imu)
         cls.led = Recorder(NS + 'led/state', ColorRGBA)
         cls.thermal = Recorder(NS + 'thermal_display/state', Temperature)
-        cls.sim_sleep(1.0)
-
-    @staticmethod
-    def sim_now():
-        return rospy.wait_for_message('/clock', Clock, timeout=30).clock.to_sec()
-
-    @classmethod
-    def sim_sleep(cls, seconds):
-        start = cls.sim_now()
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            if cls.sim_now() - start >= seconds:
-                return
-            time.sleep(0.02)
-        raise AssertionError('sim time did not advance')
+        sim_sleep(1.0)
 
     def accel_var(self, t0, t1):
         a = np.array([(m.linear_acceleration.x, m.linear_acceleration.y,
@@ -65,40 +42,40 @@ class Outputs(unittest.TestCase):
         return np.var(a, axis=0).sum()
 
     def test_vibration_raises_the_imu_variance(self):
-        t0 = self.sim_now()
-        self.sim_sleep(1.5)
-        quiet = self.accel_var(t0, self.sim_now())
+        t0 = sim_now()
+        sim_sleep(1.5)
+        quiet = self.accel_var(t0, sim_now())
         pub(NS + 'vibrate', 'mobile_device_sim/Vibration',
             '{timings: [6.0, 1.0], amplitudes: [1.0, 0.0], repeat: -1}')
         # rostopic pub -1 returns about 3 s (wall) after it published
-        t1 = self.sim_now()
-        self.sim_sleep(0.5)
-        t2 = self.sim_now()
+        t1 = sim_now()
+        sim_sleep(0.5)
+        t2 = sim_now()
         busy = self.accel_var(t2 - 0.4, t2)
-        self.sim_sleep(6.5)                 # the 6 s segment is over
-        t3 = self.sim_now()
+        sim_sleep(6.5)                 # the 6 s segment is over
+        t3 = sim_now()
         after = self.accel_var(t3 - 1.0, t3)
         self.assertGreater(busy, 20 * quiet, (quiet, busy, t1))
         self.assertLess(after, busy / 20, (after, busy))
         # bad input: one line, the world keeps running
         pub(NS + 'vibrate', 'mobile_device_sim/Vibration',
             '{timings: [1.0, 2.0], amplitudes: [1.0], repeat: -1}')
-        self.sim_sleep(0.5)
+        sim_sleep(0.5)
 
     def test_led_and_thermal_state(self):
         pub(NS + 'led', 'mobile_device_sim/LedCommand',
             '{argb: 0, on_ms: 500, off_ms: 500, color: "red"}')
-        self.sim_sleep(2.2)
+        sim_sleep(2.2)
         lit = [m for m in self.led.msgs if m.a == 1.0]
         self.assertTrue(lit, 'the LED never lit')
         self.assertEqual((lit[-1].r, lit[-1].g, lit[-1].b), (1.0, 0.0, 0.0))
         self.assertGreaterEqual(len([m for m in self.led.msgs if m.a == 0.0]), 2)   # blinks
         pub(NS + 'thermal_display/temperature', 'std_msgs/Float64', '{data: 43.0}')
-        self.sim_sleep(3.5)
+        sim_sleep(3.5)
         temp = self.thermal.msgs[-1].temperature
         self.assertTrue(38.0 < temp < 43.0, temp)     # about 63 % after tau = 3 s
         pub(NS + 'thermal_display/temperature', 'std_msgs/Float64', '{data: .nan}')
-        self.sim_sleep(0.5)
+        sim_sleep(0.5)
         self.assertGreater(self.thermal.msgs[-1].temperature, temp - 0.01)
 
 

@@ -8,30 +8,17 @@ import unittest
 import rosgraph
 import rospy
 import rostest
-from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Bool, Float64, String
 
 from mobile_device_sim.msg import (CellSignal, ModelState, NfcIncoming, NfcNotification,
                                    NfcOutgoing, WifiLink, WifiScan)
 from mobile_device_sim.srv import GetModelState, SetModelState
+from common import Recorder, model_state_msg, sim_sleep, wait_models  # noqa: E402
 
 A, B, C = 'mobile_device', 'mobile_device_b', 'mobile_device_c'
 AP_OFFICE, AP_WEST = '00:1a:2b:3c:4d:01', '00:1a:2b:3c:4d:02'
 VCARD = ('BEGIN:VCARD\nVERSION:2.1\nN:Mustermann;Max\nFN:Max Mustermann\n'
          'TEL;CELL:+49 89 289 00000\nEMAIL:max@example.org\nEND:VCARD')
-
-
-class Recorder(object):
-    def __init__(self, topic, cls):
-        self.msgs = []
-        self.sub = rospy.Subscriber(topic, cls, self.msgs.append, queue_size=1000)
-
-
-def pose_msg(model, x, y, z, roll=0.0):
-    m = ModelState(model_name=model, reference_frame='world')
-    m.pose.position.x, m.pose.position.y, m.pose.position.z = x, y, z
-    m.pose.orientation.x, m.pose.orientation.w = math.sin(roll / 2), math.cos(roll / 2)
-    return m
 
 
 class Radio(unittest.TestCase):
@@ -41,10 +28,7 @@ class Radio(unittest.TestCase):
         rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
         cls.get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
         cls.set = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
-        deadline = time.time() + 90
-        while time.time() < deadline and not all(cls.get(m, 'world').success
-                                                   for m in (A, B, C)):
-            time.sleep(0.2)
+        wait_models(cls.get, [A, B, C])
         cls.rec = {}
         for ns in (A, B, C):
             cls.rec[ns] = dict(
@@ -55,24 +39,10 @@ class Radio(unittest.TestCase):
         cls.cell = Recorder('/%s/cellular/signal' % A, CellSignal)
         cls.out = dict((ns, rospy.Publisher('/%s/nfc/outgoing' % ns, NfcOutgoing,
                                             queue_size=10)) for ns in (A, B, C))
-        cls.sim_sleep(2.0)
-
-    @staticmethod
-    def sim_now():
-        return rospy.wait_for_message('/clock', Clock, timeout=30).clock.to_sec()
-
-    @classmethod
-    def sim_sleep(cls, seconds):
-        start = cls.sim_now()
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            if cls.sim_now() - start >= seconds:
-                return
-            time.sleep(0.02)
-        raise AssertionError('sim time did not advance')
+        sim_sleep(2.0)
 
     def put(self, model, x, y, z, roll=0.0):
-        res = self.set(pose_msg(model, x, y, z, roll))
+        res = self.set(model_state_msg(model, (x, y, z), (roll, 0.0, 0.0)))
         self.assertTrue(res.success, res.status_message)
 
     def wait_for(self, what, cond, timeout=30.0):
@@ -93,7 +63,7 @@ class Radio(unittest.TestCase):
         self.assertEqual(types.get('/%s/wifi/link' % A), 'mobile_device_sim/WifiLink')
         self.assertEqual(types.get('/%s/cellular/signal' % A), 'mobile_device_sim/CellSignal')
         self.put(A, 4.5, -1.0, 1.0)
-        self.sim_sleep(2.5)
+        sim_sleep(2.5)
         self.assertEqual(self.scan.msgs[-1].access_points[0].bssid, AP_OFFICE)
         self.assertTrue(self.link.msgs[-1].connected)
         self.assertEqual(self.link.msgs[-1].bssid, AP_OFFICE)
@@ -103,8 +73,8 @@ class Radio(unittest.TestCase):
         for x, y in ((3.5, 0.4), (2.5, 0.4), (1.5, 0.45), (0.8, 0.0), (0.7, -2.0),
                      (0.7, -3.5)):
             self.put(A, x, y, 1.0)
-            self.sim_sleep(1.2)
-        self.sim_sleep(1.5)
+            sim_sleep(1.2)
+        sim_sleep(1.5)
         s = self.scan.msgs[-1]
         self.assertEqual(s.access_points[0].bssid, AP_WEST, s)
         self.assertGreater(s.access_points[0].level, s.access_points[-1].level)
@@ -127,7 +97,7 @@ class Radio(unittest.TestCase):
         self.wait_for('belt disabled', lambda: st.msgs[-1].data == 'disabled')
         self.wait_for('wifi off', lambda: not self.link.msgs[-1].enabled)
         n = len(hr.msgs)
-        self.sim_sleep(2.5)
+        sim_sleep(2.5)
         self.assertEqual(len(hr.msgs), n)
         self.assertFalse(self.link.msgs[-1].connected)
         self.assertEqual(self.scan.msgs[-1].access_points, [])
@@ -168,16 +138,16 @@ class Radio(unittest.TestCase):
         # outgoing without a partner: not delivered
         n = len(self.rec[B]['inc'].msgs)
         self.out[A].publish(NfcOutgoing(receiver=B, data='lost'))
-        self.sim_sleep(0.5)
+        sim_sleep(0.5)
         self.assertEqual(len(self.rec[B]['inc'].msgs), n)
 
     def test_3_nfc_back_to_back_does_not_connect(self):
         self.put(B, 4.0, -4.0, 1.5)
-        self.sim_sleep(0.3)
+        sim_sleep(0.3)
         na, nb = len(self.notes(A)), len(self.notes(B))
         self.put(A, 4.0, -4.0, 1.0, roll=math.pi)            # screen down
         self.put(B, 4.0, -4.0, 1.03)                         # screen up, 3 cm above
-        self.sim_sleep(1.0)
+        sim_sleep(1.0)
         self.assertEqual(self.notes(A)[na:], [])
         self.assertEqual(self.notes(B)[nb:], [])
 
@@ -192,7 +162,7 @@ class Radio(unittest.TestCase):
         self.assertIn(('nfc_poster', 'passive', 'connected'), self.notes(A))
         self.put(A, 4.0, -1.0, 1.0)
         self.put(C, 2.2, 0.97, 1.3, roll=-math.pi / 2)
-        self.sim_sleep(1.0)
+        sim_sleep(1.0)
         self.assertEqual(self.notes(C), [])
         self.assertEqual(self.rec[C]['inc'].msgs, [])
 

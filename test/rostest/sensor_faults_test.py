@@ -9,6 +9,7 @@ import rostest
 from sensor_msgs.msg import BatteryState, Imu
 
 from mobile_device_sim.msg import ContactsState, PowerState
+from common import Recorder  # noqa: E402
 
 NS = '/mobile_device/'
 
@@ -24,12 +25,6 @@ def fault(sensor, kind, value=0.0):
     return 'success: True' in out, out
 
 
-class Recorder(object):
-    def __init__(self, topic, cls):
-        self.msgs = []
-        self.sub = rospy.Subscriber(NS + topic, cls, self.msgs.append, queue_size=1000)
-
-
 def data(m):
     """A message's content without its header."""
     return tuple(str(getattr(m, s)) for s in m.__slots__ if s != 'header')
@@ -41,10 +36,10 @@ class SensorFaults(unittest.TestCase):
         rospy.init_node('sensor_faults_test')
         rospy.wait_for_service('/gazebo/set_sensor_fault', timeout=60)
         rospy.wait_for_message(NS + 'imu_sensor_data', Imu, timeout=120)   # the phone is in
-        cls.rec = dict(battery_state=Recorder('battery_state', BatteryState),
-                       power_state=Recorder('power_state', PowerState),
-                       contacts=Recorder('contacts', ContactsState),
-                       imu=Recorder('imu_sensor_data', Imu))
+        cls.rec = dict(battery_state=Recorder(NS + 'battery_state', BatteryState),
+                       power_state=Recorder(NS + 'power_state', PowerState),
+                       contacts=Recorder(NS + 'contacts', ContactsState),
+                       imu=Recorder(NS + 'imu_sensor_data', Imu))
         rospy.sleep(2.0)                 # sim time (/use_sim_time)
 
     def counts(self, *topics):

@@ -2,19 +2,18 @@
 """rostest: the phone's proximity, ambient light, touch/buttons and battery topics with a
 real roscore (simsensors_phone.test)."""
 import subprocess
-import time
 import unittest
 
 import rosgraph
 import rospy
 import rostest
 from geometry_msgs.msg import Pose as PoseMsg
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, Illuminance, Range
 from std_msgs.msg import Bool, ColorRGBA
 
 from mobile_device_sim.msg import ButtonEvent, ContactsState, PowerState, TouchEvent
 from mobile_device_sim.srv import DeleteModel, GetModelState, SpawnModel
+from common import Recorder, sim_sleep, wait_models  # noqa: E402
 
 NS = '/mobile_device/'
 # topic -> (documented type, class, rate in Hz of sim time or None for event topics)
@@ -33,37 +32,16 @@ HAND = '''<robot name="hand"><link name="palm">
   <gazebo><static>true</static></gazebo></robot>'''
 
 
-class Recorder(object):
-    def __init__(self, topic, cls):
-        self.msgs = []
-        self.sub = rospy.Subscriber(topic, cls, self.msgs.append, queue_size=1000)
-
-
 class PhoneSensors(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node('simsensors_phone_test')
         rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
         get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 60
-        while time.time() < deadline and not get('mobile_device', 'world').success:
-            time.sleep(0.2)
+        wait_models(get, ['mobile_device'], timeout=60)
         cls.rec = dict((t, Recorder(NS + t, c)) for t, (_, c, _) in TOPICS.items())
         rospy.wait_for_service(NS + 'inject_touch', timeout=30)
-        cls.sim_sleep(3.0)
-
-    @staticmethod
-    def sim_now():
-        return rospy.wait_for_message('/clock', Clock, timeout=30).clock.to_sec()
-
-    @classmethod
-    def sim_sleep(cls, seconds):
-        start = cls.sim_now()
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            if cls.sim_now() - start >= seconds:
-                return
-        raise AssertionError('sim time did not advance')
+        sim_sleep(3.0)
 
     def test_types_and_rates(self):
         types = dict(rosgraph.Master('/test').getTopicTypes())
@@ -105,7 +83,7 @@ class PhoneSensors(unittest.TestCase):
         nb = len(self.rec['buttons'].msgs)
         out = self.rosservice(NS + 'press_button', '{button: power, duration: 0.1}')
         self.assertIn('success: True', out)
-        self.sim_sleep(1.0)
+        sim_sleep(1.0)
         ev = self.rec['touch'].msgs[n:]
         self.assertEqual([e.action for e in ev][0], TouchEvent.DOWN)
         self.assertEqual([e.action for e in ev][-1], TouchEvent.UP)
@@ -128,13 +106,13 @@ class PhoneSensors(unittest.TestCase):
     def test_charger(self):
         pub = rospy.Publisher(NS + 'charger', Bool, queue_size=1, latch=True)
         pub.publish(Bool(True))
-        self.sim_sleep(1.5)
+        sim_sleep(1.5)
         self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 1)
         self.assertLess(self.rec['power_state'].msgs[-1].power_consumption, 0.001)
         self.assertEqual(self.rec['battery_state'].msgs[-1].power_supply_status,
                          BatteryState.POWER_SUPPLY_STATUS_FULL)
         pub.publish(Bool(False))
-        self.sim_sleep(1.5)
+        sim_sleep(1.5)
         self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 0)
 
     def test_proximity_hand(self):
@@ -149,13 +127,13 @@ class PhoneSensors(unittest.TestCase):
         p.orientation.w = 1.0
         res = spawn('hand', HAND, '', p, 'world')
         self.assertTrue(res.success, res.status_message)
-        self.sim_sleep(1.5)
+        sim_sleep(1.5)
         self.assertEqual(self.rec['proximity'].msgs[-1].range, 0.0)
         covered = self.rec['illuminance'].msgs[-1].illuminance
         self.assertLess(covered, 0.5 * before)
         res = rospy.ServiceProxy('/gazebo/delete_model', DeleteModel)('hand')
         self.assertTrue(res.success, res.status_message)
-        self.sim_sleep(1.5)
+        sim_sleep(1.5)
         self.assertAlmostEqual(self.rec['proximity'].msgs[-1].range, 0.05, places=6)
 
 

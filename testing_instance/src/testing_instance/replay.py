@@ -13,15 +13,11 @@ outputs have arrived, as in a live run.
 import json
 import time
 
-from .runner import EVENTS_TOPIC, META_TOPIC, RunError
+from .procs import free_port
+from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
+from .results import RunError
 
 __all__ = ['replay_run', 'read_meta']
-
-
-def read_meta(bag):
-    for _topic, msg, _t in bag.read_messages(topics=[META_TOPIC]):
-        return json.loads(msg.data)
-    return None
 
 
 def replay_run(r):
@@ -38,7 +34,6 @@ def replay_run(r):
                        % (r.replay, META_TOPIC))
     inputs = set(meta['inputs'])
     if r.port is None:
-        from .runner import free_port
         r.port = free_port()
     r._start_roscore()
     r._wait_master(time.monotonic() + 60.0)

@@ -21,20 +21,19 @@ import json
 import math
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import threading
 import time
-import xml.etree.ElementTree as ET
 
 from . import motion
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
+from .procs import Proc as _Proc, free_port, tail as _tail
+from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC
+from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
 
-EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
 LAUNCHES = {
@@ -43,114 +42,9 @@ LAUNCHES = {
 MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
                          # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
 SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
-# not recorded unless named in `record:` or used by an expectation (each one makes the
-# renderer draw a frame per message)
-HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/PointCloud2')
-EVENTS_TOPIC = '/scenario/events'
-META_TOPIC = '/scenario/meta'
 
 __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
            'EXIT_ERROR']
-
-
-class RunError(Exception):
-    """The scenario could not run (the verdict is ERROR, not FAIL)."""
-
-    def __init__(self, text, log_lines=()):
-        Exception.__init__(self, text)
-        self.log_lines = list(log_lines)
-
-
-class Result(object):
-    def __init__(self, name, verdicts, error=None, log_lines=(), sim_time=0.0, wall=0.0):
-        self.name = name
-        self.verdicts = verdicts
-        self.error = error
-        self.log_lines = list(log_lines)
-        self.sim_time = sim_time
-        self.wall = wall
-
-    @property
-    def status(self):
-        if self.error or any(v.error for v in self.verdicts):
-            return 'ERROR'
-        return 'PASS' if all(v.passed for v in self.verdicts) else 'FAIL'
-
-    @property
-    def exit_code(self):
-        return {'PASS': EXIT_PASS, 'FAIL': EXIT_FAIL}.get(self.status, EXIT_ERROR)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(('localhost', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def write_junit(result, path, classname='scenario'):
-    suite = ET.Element('testsuite', name=result.name, tests=str(max(1, len(result.verdicts))),
-                       failures=str(sum(1 for v in result.verdicts
-                                        if not v.passed and not v.error)),
-                       errors=str(sum(1 for v in result.verdicts if v.error)
-                                  + (1 if result.error else 0)),
-                       time='%.3f' % result.wall)
-    ET.SubElement(suite, 'properties')
-    for v in result.verdicts:
-        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
-                           name=v.name, time='0')
-        if v.error:
-            ET.SubElement(tc, 'error', message=v.line()).text = v.line()
-        elif not v.passed:
-            ET.SubElement(tc, 'failure', message=v.line()).text = v.line()
-        ET.SubElement(tc, 'system-out').text = v.line()
-    if result.error:
-        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
-                           name='run')
-        text = result.error + ('\n' + '\n'.join(result.log_lines) if result.log_lines else '')
-        ET.SubElement(tc, 'error', message=result.error).text = text
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    ET.ElementTree(suite).write(path, encoding='utf-8', xml_declaration=True)
-
-
-def _tail(path, n=25):
-    try:
-        with open(path, errors='replace') as f:
-            return [ln.rstrip('\n') for ln in f.readlines()[-n:]]
-    except OSError:
-        return []
-
-
-class _Proc(object):
-    """A child process in its own process group, output to a log file."""
-
-    def __init__(self, cmd, env, log_path, cwd=None):
-        self.cmd = cmd
-        self.log_path = log_path
-        self.log = open(log_path, 'w')
-        self.p = subprocess.Popen(cmd, env=env, stdout=self.log, stderr=subprocess.STDOUT,
-                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd)
-
-    def alive(self):
-        return self.p.poll() is None
-
-    def stop(self, grace=10.0):
-        if self.p.poll() is None:
-            try:
-                os.killpg(self.p.pid, signal.SIGINT)
-            except OSError:
-                pass
-            try:
-                self.p.wait(grace)
-            except subprocess.TimeoutExpired:
-                try:
-                    os.killpg(self.p.pid, signal.SIGKILL)
-                except OSError:
-                    pass
-                self.p.wait(5)
-        self.log.close()
 
 
 class Runner(object):

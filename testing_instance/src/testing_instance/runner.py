@@ -16,7 +16,6 @@ Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scen
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
 """
-import heapq
 import json
 import math
 import os
@@ -33,6 +32,7 @@ from .procs import Proc as _Proc, free_port, tail as _tail
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC
 from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
+from .timeline import Agenda, next_stop
 
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
@@ -435,8 +435,7 @@ class Runner(object):
                                                         sort_keys=True)), t)
 
     def _push(self, t, fn, what):
-        self.seq_agenda += 1
-        heapq.heappush(self.agenda, (round(t, 9), self.seq_agenda, fn, what))
+        self.agenda.push(t, fn, what)
 
     def _fire(self, ev, t):
         """Event ev triggers at sim time t: schedule its action and what waits for it."""
@@ -706,7 +705,7 @@ class Runner(object):
             w = ev.get('when')
             if isinstance(w, dict) and 'topic' in w:
                 self.cond_by_topic.setdefault(w['topic'], []).append(ev)
-        self.agenda, self.seq_agenda = [], 0
+        self.agenda = Agenda()
         error, log = None, []
         watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
         watchdog.daemon = True
@@ -799,25 +798,21 @@ class Runner(object):
 
     def _loop(self, step_to):
         end = self.t0 + self.sc.duration
-        eps = 1e-9
         last_settle = self.t
         # apps answer asynchronously: with apps, wait for them every slice, so that their
         # outputs are timed to within a slice
         settle_every = self.sc.slice if self.sc.apps else SETTLE_EVERY
         while True:
             self._check_world()
-            while self.agenda and self.agenda[0][0] <= self.t + 5e-4:
-                _t, _s, fn, _what = heapq.heappop(self.agenda)
-                fn(self.t)
+            due = self.agenda.pop_due(self.t)
+            while due is not None:
+                due[0](self.t)
+                due = self.agenda.pop_due(self.t)
             if self.t >= end - 5e-4:
                 break
-            nxt = min(end, self.t + (self.sc.slice if self.sc.apps else MAX_SLICE))
-            if self.agenda:
-                nxt = min(nxt, self.agenda[0][0])
-            if self.pending_conditions():
-                nxt = min(nxt, self.t + self.sc.slice)
-            if nxt <= self.t + eps:
-                nxt = self.t + 1e-3
+            nxt = next_stop(self.t, end, self.sc.slice if self.sc.apps else MAX_SLICE,
+                            self.agenda.next_time(), bool(self.pending_conditions()),
+                            self.sc.slice)
             self.t = step_to(nxt)
             # wait for the slice's messages when a topic condition waits for them, and at
             # least every settle_every s of sim time (so apps keep up); short motion slices

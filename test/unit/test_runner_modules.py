@@ -55,3 +55,15 @@ def test_tail_of_a_log(tmp_path):
     p.write_text('\n'.join(str(i) for i in range(40)) + '\n')
     assert procs.tail(str(p), 3) == ['37', '38', '39']
     assert procs.tail(str(tmp_path / 'missing.log')) == []
+
+
+def test_replay_uses_only_the_runners_public_api():
+    tree = ast.parse(open(os.path.join(PKG, 'replay.py')).read())
+    private = sorted({n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
+                      and isinstance(n.value, ast.Name) and n.value.id == 'r'
+                      and n.attr.startswith('_')})
+    assert private == []
+    for name in ('start_roscore', 'wait_master', 'init_ros', 'open_bag', 'start_apps',
+                 'subscribe_all', 'write_meta', 'check_world', 'settle', 'drain',
+                 'start_after', 'master_uri', 'missing_topics_are_errors'):
+        assert hasattr(runner.Runner, name), name

@@ -35,13 +35,13 @@ def replay_run(r):
     inputs = set(meta['inputs'])
     if r.port is None:
         r.port = free_port()
-    r._start_roscore()
-    r._wait_master(time.monotonic() + 60.0)
+    r.start_roscore()
+    r.wait_master(time.monotonic() + 60.0)
     import rosgraph
     import rosparam  # noqa: F401 - ensures the param API is importable
-    rosgraph.Master('/scenario_runner', master_uri=r._env()['ROS_MASTER_URI']).setParam(
+    rosgraph.Master('/scenario_runner', master_uri=r.master_uri()).setParam(
         '/use_sim_time', True)
-    r._init_ros()
+    r.init_ros()
     clock = rospy.Publisher('/clock', Clock, queue_size=100)
     pubs = {}
     msgs = []
@@ -57,12 +57,12 @@ def replay_run(r):
                 msgs.append((t.to_sec(), EVENTS_TOPIC, ev))
     bag.close()
     if r.record_path:
-        r._open_bag()
+        r.open_bag()
     r.t0 = r.t = float(meta.get('t0', 0.0))
     clock.publish(Clock(rospy.Time.from_sec(r.t)))
-    r._start_apps()
+    r.start_apps()
     r.topic_types = {}
-    r._subscribe_all()
+    r.subscribe_all()
     # wait until every app that subscribes an input is connected to our publisher
     import rosgraph as rg
     _p, subs, _s = rg.Master('/scenario_runner').getSystemState()
@@ -71,34 +71,29 @@ def replay_run(r):
     while time.monotonic() < deadline and any(
             pubs[t].get_num_connections() < len(n) for t, n in want.items()):
         time.sleep(0.02)
-    r._meta_replay = meta
+    r.replay_meta = meta
     if r.bag is not None:
-        r._meta()
+        r.write_meta()
     i = 0
     end = r.t0 + float(meta.get('duration', r.sc.duration))
     while True:
-        r._check_world()
+        r.check_world()
         nxt = min(end, r.t + r.sc.slice)
         while i < len(msgs) and msgs[i][0] <= nxt + 1e-9:
             t, topic, msg = msgs[i]
             i += 1
             if topic == EVENTS_TOPIC:
-                r.event_times.setdefault(msg['id'], t)
-                for e in r.expectations:
-                    if e.after == msg['id']:
-                        e.start(t)
+                r.start_after(msg['id'], t)
                 continue
             clock.publish(Clock(rospy.Time.from_sec(t)))
             pubs[topic].publish(msg)
         clock.publish(Clock(rospy.Time.from_sec(nxt)))
         r.t = nxt
-        r._settle(quiet=0.03)
-        r._subscribe_all(wait_connections=False)
-        r._drain()
+        r.settle(quiet=0.03)
+        r.subscribe_all(wait_connections=False)
+        r.drain()
         if r.t >= end - 1e-9:
             break
-    r._settle()
-    r._drain()
-    for e in r.expectations:
-        if e.topic not in r.subs and e.verdict is None:
-            e.error('topic %s is neither in the recording nor published by an app' % e.topic)
+    r.settle()
+    r.drain()
+    r.missing_topics_are_errors('is neither in the recording nor published by an app')

@@ -80,6 +80,33 @@ class Runner(object):
         self.t = 0.0
         self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
 
+    # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
+    def start_after(self, event_id, t):
+        """Timeline event event_id happened at sim time t: start the windows after it."""
+        self.event_times.setdefault(event_id, t)
+        for e in self.expectations:
+            if e.after == event_id:
+                e.start(t)
+
+    def master_uri(self):
+        return self._env()['ROS_MASTER_URI']
+
+    def missing_topics_are_errors(self, why):
+        for e in self.expectations:
+            if e.topic not in self.subs and e.verdict is None:
+                e.error('topic %s %s' % (e.topic, why))
+
+    start_roscore = property(lambda self: self._start_roscore)
+    wait_master = property(lambda self: self._wait_master)
+    init_ros = property(lambda self: self._init_ros)
+    open_bag = property(lambda self: self._open_bag)
+    start_apps = property(lambda self: self._start_apps)
+    subscribe_all = property(lambda self: self._subscribe_all)
+    write_meta = property(lambda self: self._meta)
+    check_world = property(lambda self: self._check_world)
+    settle = property(lambda self: self._settle)
+    drain = property(lambda self: self._drain)
+
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
         self.out(text)
@@ -851,8 +878,8 @@ class Runner(object):
         inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes)
         if '/gazebo/environment' not in inputs:
             inputs.append('/gazebo/environment')
-        if getattr(self, '_meta_replay', None):
-            inputs = self._meta_replay['inputs']
+        if getattr(self, 'replay_meta', None):
+            inputs = self.replay_meta['inputs']
         meta = dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
                     real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
                     duration=self.sc.duration,

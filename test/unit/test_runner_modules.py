@@ -67,3 +67,13 @@ def test_replay_uses_only_the_runners_public_api():
                  'subscribe_all', 'write_meta', 'check_world', 'settle', 'drain',
                  'start_after', 'master_uri', 'missing_topics_are_errors'):
         assert hasattr(runner.Runner, name), name
+
+
+def test_every_scenario_action_has_its_method_in_actions():
+    from testing_instance import actions, scenario
+    names = getattr(scenario, 'ACTIONS', None)
+    methods = {m[len('_act_'):] for m in vars(actions.Actions) if m.startswith('_act_')}
+    assert issubclass(runner.Runner, actions.Actions)
+    assert {'walk', 'publish', 'fault', 'set_environment'} <= methods
+    if names is not None:
+        assert set(names) <= methods

@@ -28,6 +28,7 @@ import time
 
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
+from .inbox import Inbox
 from .procs import Proc as _Proc, free_port, tail as _tail
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC
 from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
@@ -64,10 +65,7 @@ class Runner(Actions):
         self.port = port
         self.procs = []
         self.world_proc = None
-        self.lock = threading.Lock()
-        self.buffer = []
-        self.last_msg_wall = time.monotonic()
-        self.seq = 0
+        self.inbox = Inbox()
         self.subs = {}
         self.topic_types = {}
         self.bag = None
@@ -417,10 +415,7 @@ class Runner(Actions):
         t = self._stamp_of(msg)
         if self.debug and not hasattr(msg, 'header'):
             self.say('  debug: %s at %.3f' % (topic, t))
-        with self.lock:
-            self.seq += 1
-            self.buffer.append((t, self.seq, topic, msg))
-            self.last_msg_wall = time.monotonic()
+        self.inbox.put(t, topic, msg)
         if self.bag is not None:
             self._bag_write(topic, msg, t)
 
@@ -432,20 +427,10 @@ class Runner(Actions):
     def _settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
-        t0 = time.monotonic()
-        while True:
-            now = time.monotonic()
-            with self.lock:
-                last = self.last_msg_wall
-            if now - max(last, t0) >= quiet or now - t0 > longest:
-                return
-            time.sleep(0.005)
+        self.inbox.settle(quiet, longest)
 
     def _drain(self):
-        with self.lock:
-            batch, self.buffer = self.buffer, []
-        batch.sort(key=lambda x: (x[0], x[2], x[1]))
-        for t, _s, topic, msg in batch:
+        for t, _s, topic, msg in self.inbox.take():
             for e in self.by_topic.get(topic, ()):
                 e.feed(t, msg)
             for ev in self.cond_by_topic.get(topic, ()):

@@ -13,6 +13,7 @@ outputs have arrived, as in a live run.
 import json
 import time
 
+from .clock import ReplayClock
 from .procs import free_port
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
 from .results import RunError
@@ -74,21 +75,13 @@ def replay_run(r):
     r.replay_meta = meta
     if r.bag is not None:
         r.write_meta()
-    i = 0
+    src = ReplayClock(msgs, lambda topic, m: pubs[topic].publish(m),
+                      lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
+                      lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC)
     end = r.t0 + float(meta.get('duration', r.sc.duration))
     while True:
         r.check_world()
-        nxt = min(end, r.t + r.sc.slice)
-        while i < len(msgs) and msgs[i][0] <= nxt + 1e-9:
-            t, topic, msg = msgs[i]
-            i += 1
-            if topic == EVENTS_TOPIC:
-                r.start_after(msg['id'], t)
-                continue
-            clock.publish(Clock(rospy.Time.from_sec(t)))
-            pubs[topic].publish(msg)
-        clock.publish(Clock(rospy.Time.from_sec(nxt)))
-        r.t = nxt
+        r.t = src.step_to(min(end, r.t + r.sc.slice))
         r.settle(quiet=0.03)
         r.subscribe_all(wait_connections=False)
         r.drain()

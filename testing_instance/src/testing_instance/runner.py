@@ -27,6 +27,7 @@ import threading
 import time
 
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
+from .clock import WorldClock
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
 from .inbox import Inbox
 from .procs import Proc as _Proc, free_port, tail as _tail
@@ -589,18 +590,17 @@ class Runner(Actions):
         self.loop_wall = (time.monotonic() - w0, self.t - s0)
 
     def _step_to(self, t_next):
-        try:
-            res = self.step_srv(t_next)
-        except Exception as e:  # noqa: BLE001 - the world died or the watchdog stopped it
-            if self.world_proc is not None:      # roslaunch tears down after its node died
-                try:
-                    self.world_proc.p.wait(15.0)
-                except subprocess.TimeoutExpired:
-                    pass
-            self._check_world()
-            raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
-                           % (self.t, e), self.world_log())
-        return res.sim_time
+        return WorldClock(self.step_srv, self._world_stopped).step_to(t_next)
+
+    def _world_stopped(self, e):
+        if self.world_proc is not None:      # roslaunch tears down after its node died
+            try:
+                self.world_proc.p.wait(15.0)
+            except subprocess.TimeoutExpired:
+                pass
+        self._check_world()
+        raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
+                       % (self.t, e), self.world_log())
 
     def _loop(self, step_to):
         end = self.t0 + self.sc.duration

@@ -13,15 +13,12 @@ outputs have arrived, as in a live run.
 import json
 import time
 
-from .runner import EVENTS_TOPIC, META_TOPIC, RunError
+from .clock import ReplayClock
+from .procs import free_port
+from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
+from .results import RunError
 
 __all__ = ['replay_run', 'read_meta']
-
-
-def read_meta(bag):
-    for _topic, msg, _t in bag.read_messages(topics=[META_TOPIC]):
-        return json.loads(msg.data)
-    return None
 
 
 def replay_run(r):
@@ -38,15 +35,14 @@ def replay_run(r):
                        % (r.replay, META_TOPIC))
     inputs = set(meta['inputs'])
     if r.port is None:
-        from .runner import free_port
         r.port = free_port()
-    r._start_roscore()
-    r._wait_master(time.monotonic() + 60.0)
+    r.start_roscore()
+    r.wait_master(time.monotonic() + 60.0)
     import rosgraph
     import rosparam  # noqa: F401 - ensures the param API is importable
-    rosgraph.Master('/scenario_runner', master_uri=r._env()['ROS_MASTER_URI']).setParam(
+    rosgraph.Master('/scenario_runner', master_uri=r.master_uri()).setParam(
         '/use_sim_time', True)
-    r._init_ros()
+    r.init_ros()
     clock = rospy.Publisher('/clock', Clock, queue_size=100)
     pubs = {}
     msgs = []
@@ -66,12 +62,12 @@ def replay_run(r):
     finally:
         bag.close()
     if r.record_path:
-        r._open_bag()
+        r.open_bag()
     r.t0 = r.t = float(meta.get('t0', 0.0))
     clock.publish(Clock(rospy.Time.from_sec(r.t)))
-    r._start_apps()
+    r.start_apps()
     r.topic_types = {}
-    r._subscribe_all()
+    r.subscribe_all()
     # wait until every app that subscribes an input is connected to our publisher
     import rosgraph as rg
     _p, subs, _s = rg.Master('/scenario_runner').getSystemState()
@@ -80,34 +76,21 @@ def replay_run(r):
     while time.monotonic() < deadline and any(
             pubs[t].get_num_connections() < len(n) for t, n in want.items()):
         time.sleep(0.02)
-    r._meta_replay = meta
+    r.replay_meta = meta
     if r.bag is not None:
-        r._meta()
-    i = 0
+        r.write_meta()
+    src = ReplayClock(msgs, lambda topic, m: pubs[topic].publish(m),
+                      lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
+                      lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC)
     end = r.t0 + float(meta.get('duration', r.sc.duration))
     while True:
-        r._check_world()
-        nxt = min(end, r.t + r.sc.slice)
-        while i < len(msgs) and msgs[i][0] <= nxt + 1e-9:
-            t, topic, msg = msgs[i]
-            i += 1
-            if topic == EVENTS_TOPIC:
-                r.event_times.setdefault(msg['id'], t)
-                for e in r.expectations:
-                    if e.after == msg['id']:
-                        e.start(t)
-                continue
-            clock.publish(Clock(rospy.Time.from_sec(t)))
-            pubs[topic].publish(msg)
-        clock.publish(Clock(rospy.Time.from_sec(nxt)))
-        r.t = nxt
-        r._settle(quiet=0.03)
-        r._subscribe_all(wait_connections=False)
-        r._drain()
+        r.check_world()
+        r.t = src.step_to(min(end, r.t + r.sc.slice))
+        r.settle(quiet=0.03)
+        r.subscribe_all(wait_connections=False)
+        r.drain()
         if r.t >= end - 1e-9:
             break
-    r._settle()
-    r._drain()
-    for e in r.expectations:
-        if e.topic not in r.subs and e.verdict is None:
-            e.error('topic %s is neither in the recording nor published by an app' % e.topic)
+    r.settle()
+    r.drain()
+    r.missing_topics_are_errors('is neither in the recording nor published by an app')

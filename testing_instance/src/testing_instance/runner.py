@@ -16,25 +16,26 @@ Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scen
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
 """
-import heapq
 import json
 import math
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 import threading
 import time
-import xml.etree.ElementTree as ET
 
-from . import motion
+from .actions import Actions, _set_field  # noqa: F401 - re-exported
+from .clock import WorldClock
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
+from .inbox import Inbox
+from .procs import Proc as _Proc, free_port, tail as _tail
+from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC
+from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
-from sim_world.netutil import free_port
+from .timeline import Agenda, next_stop
 
-EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
 LAUNCHES = {
@@ -43,111 +44,12 @@ LAUNCHES = {
 MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
                          # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
 SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
-# not recorded unless named in `record:` or used by an expectation (each one makes the
-# renderer draw a frame per message)
-HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/PointCloud2')
-EVENTS_TOPIC = '/scenario/events'
-META_TOPIC = '/scenario/meta'
 
 __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
            'EXIT_ERROR']
 
 
-class RunError(Exception):
-    """The scenario could not run (the verdict is ERROR, not FAIL)."""
-
-    def __init__(self, text, log_lines=()):
-        Exception.__init__(self, text)
-        self.log_lines = list(log_lines)
-
-
-class Result(object):
-    def __init__(self, name, verdicts, error=None, log_lines=(), sim_time=0.0, wall=0.0):
-        self.name = name
-        self.verdicts = verdicts
-        self.error = error
-        self.log_lines = list(log_lines)
-        self.sim_time = sim_time
-        self.wall = wall
-
-    @property
-    def status(self):
-        if self.error or any(v.error for v in self.verdicts):
-            return 'ERROR'
-        return 'PASS' if all(v.passed for v in self.verdicts) else 'FAIL'
-
-    @property
-    def exit_code(self):
-        return {'PASS': EXIT_PASS, 'FAIL': EXIT_FAIL}.get(self.status, EXIT_ERROR)
-
-
-
-
-def write_junit(result, path, classname='scenario'):
-    suite = ET.Element('testsuite', name=result.name, tests=str(max(1, len(result.verdicts))),
-                       failures=str(sum(1 for v in result.verdicts
-                                        if not v.passed and not v.error)),
-                       errors=str(sum(1 for v in result.verdicts if v.error)
-                                  + (1 if result.error else 0)),
-                       time='%.3f' % result.wall)
-    ET.SubElement(suite, 'properties')
-    for v in result.verdicts:
-        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
-                           name=v.name, time='0')
-        if v.error:
-            ET.SubElement(tc, 'error', message=v.line()).text = v.line()
-        elif not v.passed:
-            ET.SubElement(tc, 'failure', message=v.line()).text = v.line()
-        ET.SubElement(tc, 'system-out').text = v.line()
-    if result.error:
-        tc = ET.SubElement(suite, 'testcase', classname='%s.%s' % (classname, result.name),
-                           name='run')
-        text = result.error + ('\n' + '\n'.join(result.log_lines) if result.log_lines else '')
-        ET.SubElement(tc, 'error', message=result.error).text = text
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    ET.ElementTree(suite).write(path, encoding='utf-8', xml_declaration=True)
-
-
-def _tail(path, n=25):
-    try:
-        with open(path, errors='replace') as f:
-            return [ln.rstrip('\n') for ln in f.readlines()[-n:]]
-    except OSError:
-        return []
-
-
-class _Proc(object):
-    """A child process in its own process group, output to a log file."""
-
-    def __init__(self, cmd, env, log_path, cwd=None):
-        self.cmd = cmd
-        self.log_path = log_path
-        self.log = open(log_path, 'w')
-        self.p = subprocess.Popen(cmd, env=env, stdout=self.log, stderr=subprocess.STDOUT,
-                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd)
-
-    def alive(self):
-        return self.p.poll() is None
-
-    def stop(self, grace=10.0):
-        if self.p.poll() is None:
-            try:
-                os.killpg(self.p.pid, signal.SIGINT)
-            except OSError:
-                pass
-            try:
-                self.p.wait(grace)
-            except subprocess.TimeoutExpired:
-                try:
-                    os.killpg(self.p.pid, signal.SIGKILL)
-                except OSError:
-                    pass
-                self.p.wait(5)
-        self.log.close()
-
-
-class Runner(object):
+class Runner(Actions):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None):
         self.sc = scenario
@@ -164,10 +66,7 @@ class Runner(object):
         self.port = port
         self.procs = []
         self.world_proc = None
-        self.lock = threading.Lock()
-        self.buffer = []
-        self.last_msg_wall = time.monotonic()
-        self.seq = 0
+        self.inbox = Inbox()
         self.subs = {}
         self.topic_types = {}
         self.bag = None
@@ -180,6 +79,33 @@ class Runner(object):
         self.t = 0.0
         self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
+
+    # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
+    def start_after(self, event_id, t):
+        """Timeline event event_id happened at sim time t: start the windows after it."""
+        self.event_times.setdefault(event_id, t)
+        for e in self.expectations:
+            if e.after == event_id:
+                e.start(t)
+
+    def master_uri(self):
+        return self._env()['ROS_MASTER_URI']
+
+    def missing_topics_are_errors(self, why):
+        for e in self.expectations:
+            if e.topic not in self.subs and e.verdict is None:
+                e.error('topic %s %s' % (e.topic, why))
+
+    start_roscore = property(lambda self: self._start_roscore)
+    wait_master = property(lambda self: self._wait_master)
+    init_ros = property(lambda self: self._init_ros)
+    open_bag = property(lambda self: self._open_bag)
+    start_apps = property(lambda self: self._start_apps)
+    subscribe_all = property(lambda self: self._subscribe_all)
+    write_meta = property(lambda self: self._meta)
+    check_world = property(lambda self: self._check_world)
+    settle = property(lambda self: self._settle)
+    drain = property(lambda self: self._drain)
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -495,10 +421,7 @@ class Runner(object):
         t = self._stamp_of(msg)
         if self.debug and not hasattr(msg, 'header'):
             self.say('  debug: %s at %.3f' % (topic, t))
-        with self.lock:
-            self.seq += 1
-            self.buffer.append((t, self.seq, topic, msg))
-            self.last_msg_wall = time.monotonic()
+        self.inbox.put(t, topic, msg)
         if self.bag is not None:
             self._bag_write(topic, msg, t)
 
@@ -510,20 +433,10 @@ class Runner(object):
     def _settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
-        t0 = time.monotonic()
-        while True:
-            now = time.monotonic()
-            with self.lock:
-                last = self.last_msg_wall
-            if now - max(last, t0) >= quiet or now - t0 > longest:
-                return
-            time.sleep(0.005)
+        self.inbox.settle(quiet, longest)
 
     def _drain(self):
-        with self.lock:
-            batch, self.buffer = self.buffer, []
-        batch.sort(key=lambda x: (x[0], x[2], x[1]))
-        for t, _s, topic, msg in batch:
+        for t, _s, topic, msg in self.inbox.take():
             for e in self.by_topic.get(topic, ()):
                 e.feed(t, msg)
             for ev in self.cond_by_topic.get(topic, ()):
@@ -542,8 +455,7 @@ class Runner(object):
                                                         sort_keys=True)), t)
 
     def _push(self, t, fn, what):
-        self.seq_agenda += 1
-        heapq.heappush(self.agenda, (round(t, 9), self.seq_agenda, fn, what))
+        self.agenda.push(t, fn, what)
 
     def _fire(self, ev, t):
         """Event ev triggers at sim time t: schedule its action and what waits for it."""
@@ -595,212 +507,6 @@ class Runner(object):
         return [ev for ev in self.sc.timeline if 'when' in ev
                 and ev['id'] not in self.event_times]
 
-    # -- actions ---------------------------------------------------------------------------
-    def _ns(self, ev):
-        return '/' + ev.get('ns', self.sc.phones[0]['ns']).strip('/')
-
-    def _call(self, ev, name, typ, *args):
-        try:
-            res = self.proxy(name, typ)(*args)
-        except Exception as e:  # noqa: BLE001 - service missing or the world died
-            self._check_world()
-            raise RunError('%s (%s): service %s failed: %s' % (ev['id'], ev['action'], name, e),
-                           self.world_log())
-        if hasattr(res, 'success') and not res.success:
-            raise RunError('%s (%s): %s' % (ev['id'], ev['action'], res.status_message))
-        return res
-
-    def _model_state(self, ev, model):
-        res = self._call(ev, '/gazebo/get_model_state', self.srv_types['get'], model, '')
-        p, q = res.pose.position, res.pose.orientation
-        return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
-
-    def _set_pose(self, ev, model, pos, quat, lin=(0, 0, 0), ang=(0, 0, 0), frame=''):
-        from mobile_device_sim.msg import ModelState
-        s = ModelState()
-        s.model_name = model
-        s.pose.position.x, s.pose.position.y, s.pose.position.z = (float(v) for v in pos)
-        (s.pose.orientation.x, s.pose.orientation.y, s.pose.orientation.z,
-         s.pose.orientation.w) = (float(v) for v in quat)
-        s.twist.linear.x, s.twist.linear.y, s.twist.linear.z = (float(v) for v in lin)
-        s.twist.angular.x, s.twist.angular.y, s.twist.angular.z = (float(v) for v in ang)
-        s.reference_frame = frame
-        self._call(ev, '/gazebo/set_model_state', self.srv_types['set'], s)
-
-    def _set_env(self, ev, values):
-        from mobile_device_sim.msg import EnvironmentValue
-        self._call(ev, '/gazebo/set_environment', self.srv_types['env'],
-                   [EnvironmentValue(name=k, value=float(v)) for k, v in sorted(values.items())])
-        self.env_values.update(values)
-
-    def _publisher(self, topic, cls, latch=True):
-        import rospy
-        key = (topic, cls._type)
-        if key not in self.pubs:
-            self.pubs[key] = rospy.Publisher(topic, cls, queue_size=100, latch=latch)
-        return self.pubs[key]
-
-    def _publish(self, topic, msg):
-        pub = self._publisher(topic, type(msg))
-        deadline = time.monotonic() + 5.0
-        while pub.get_num_connections() == 0 and time.monotonic() < deadline:
-            time.sleep(0.02)
-        pub.publish(msg)
-
-    def _spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):
-        ev = ev or {'id': 'phones', 'action': 'spawn_model'}
-        from geometry_msgs.msg import Pose
-        if path.endswith('.xacro') or path.endswith('.urdf'):
-            cmd = ['xacro', path] + ['%s:=%s' % kv for kv in (args or {}).items()]
-            try:
-                xml = subprocess.run(cmd, check=True, capture_output=True, text=True,
-                                     timeout=60).stdout
-            except (subprocess.CalledProcessError, OSError, subprocess.TimeoutExpired) as e:
-                raise RunError('%s: xacro %s failed: %s' % (ev['id'], path,
-                                                            getattr(e, 'stderr', e)))
-            srv = '/gazebo/spawn_urdf_model'
-        else:
-            try:
-                xml = open(path).read()
-            except OSError as e:
-                raise RunError('%s: cannot read %s: %s' % (ev['id'], path, e.strerror))
-            srv = '/gazebo/spawn_sdf_model'
-        pose = Pose()
-        pose.position.x, pose.position.y, pose.position.z = pos
-        q = motion.quat_from_rpy(*rpy)
-        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
-        self._call(ev, srv, self.srv_types['spawn_urdf'], name, xml, namespace, pose, '')
-
-    def _do_action(self, ev, t0):
-        a = ev['action']
-        fn = getattr(self, '_act_' + a)
-        fn(ev, t0)
-
-    def _act_set_model_state(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
-        if 'position' in ev:
-            pos = ev['position']
-        if 'rpy' in ev:
-            quat = motion.quat_from_rpy(*ev['rpy'])
-        self._set_pose(ev, ev['model'], pos, quat, frame=ev.get('reference_frame', ''))
-
-    def _act_move_model(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
-        if 'rpy' in ev:
-            quat = motion.quat_from_rpy(*ev['rpy'])
-        pts = motion.path_points(pos, ev['waypoints'], ev.get('speed', 0.5),
-                                 ev.get('interval', 0.02))
-        for dt, p, v in pts:
-            self._push(t0 + dt, lambda tt, p=p, v=v: self._set_pose(ev, ev['model'], p, quat, v),
-                       ev['id'])
-
-    def _act_walk(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
-        base = motion.quat_from_rpy(*ev.get('rpy', [0, 0, 0])) if 'rpy' in ev else quat
-        pts = motion.walk_points(pos, ev['waypoints'], ev.get('speed', 1.2),
-                                 ev.get('step_frequency', 1.8), ev.get('bounce', 0.02),
-                                 ev.get('interval', 0.04))
-        face = ev.get('heading', True)
-        last_yaw = [None]
-
-        def setp(tt, p, v, yaw):
-            q = base
-            if face:
-                if yaw is None:
-                    yaw = last_yaw[0]
-                last_yaw[0] = yaw
-                if yaw is not None:
-                    q = motion.quat_mul(motion.quat_from_rpy(0, 0, yaw), base)
-            self._set_pose(ev, ev['model'], p, q, v)
-        for dt, p, v, yaw in pts:
-            self._push(t0 + dt, lambda tt, p=p, v=v, y=yaw: setp(tt, p, v, y), ev['id'])
-
-    def _act_rotate(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
-        for dt, q in motion.rotate_points(quat, ev['rpy'], ev.get('duration', 0.0),
-                                          ev.get('interval', 0.02)):
-            self._push(t0 + dt, lambda tt, q=q: self._set_pose(ev, ev['model'], pos, q),
-                       ev['id'])
-
-    def _act_set_environment(self, ev, t0):
-        start = {k: self.env_values.get(k, v) for k, v in ev['values'].items()}
-        for dt, vals in motion.ramp_points(start, ev['values'], ev.get('ramp', 0.0),
-                                           ev.get('interval', 0.1)):
-            if dt == 0:
-                self._set_env(ev, vals)
-            else:
-                self._push(t0 + dt, lambda tt, v=vals: self._set_env(ev, v), ev['id'])
-
-    def _act_playback(self, ev, t0):
-        for dt, v in motion.series_points(ev['series']):
-            if 'name' in ev:
-                fn = (lambda tt, v=v: self._set_env(ev, {ev['name']: v}))
-            else:
-                cls = self._msg_class(ev['type'])
-                if cls is None:
-                    raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
-
-                def fn(tt, v=v, cls=cls):
-                    m = cls()
-                    _set_field(m, ev['field'], v)
-                    if hasattr(m, 'header'):
-                        m.header.stamp = self.rospy.Time.from_sec(tt)
-                    self._publish(ev['topic'], m)
-            if dt <= 0:
-                fn(t0)
-            else:
-                self._push(t0 + dt, fn, ev['id'])
-
-    def _act_charger(self, ev, t0):
-        from std_msgs.msg import Bool
-        self._publish(self._ns(ev) + '/charger', Bool(ev['plugged']))
-
-    def _act_radio(self, ev, t0):
-        from std_msgs.msg import Bool
-        self._publish('%s/%s/enable' % (self._ns(ev), ev['radio']), Bool(ev['enabled']))
-
-    def _act_press_button(self, ev, t0):
-        self._call(ev, self._ns(ev) + '/press_button', self.srv_types['button'], ev['button'],
-                   ev.get('duration', 0.1))
-
-    def _act_touch(self, ev, t0):
-        self._call(ev, self._ns(ev) + '/inject_touch', self.srv_types['touch'], ev['x'],
-                   ev['y'], ev.get('duration', 0.1), ev.get('pressure', 0.5),
-                   ev.get('x_end', -1.0), ev.get('y_end', -1.0))
-
-    def _act_show_image(self, ev, t0):
-        from std_msgs.msg import String
-        path = self.sc.resolve(ev['file'])
-        self._publish(ev.get('topic', self._ns(ev) + '/load_image_file'), String(path))
-
-    def _act_spawn_model(self, ev, t0):
-        self._spawn(ev['name'], self.sc.resolve(ev['file']), ev.get('position', [0, 0, 0]),
-                    ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), ev.get('args'), ev)
-
-    def _act_delete_model(self, ev, t0):
-        self._call(ev, '/gazebo/delete_model', self.srv_types['delete'], ev['name'])
-
-    def _act_fault(self, ev, t0):
-        self._call(ev, '/gazebo/set_sensor_fault', self.srv_types['fault'],
-                   ev.get('model', self.sc.phones[0]['ns']), ev['sensor'], ev['fault'],
-                   float(ev.get('value', 0.0)))
-
-    def _act_publish(self, ev, t0):
-        cls = self._msg_class(ev['type'])
-        if cls is None:
-            raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
-        m = cls()
-        try:
-            from genpy.message import fill_message_args
-            fill_message_args(m, [dict(ev.get('msg') or {})])
-        except Exception as e:  # noqa: BLE001 - genpy raises several kinds
-            raise RunError('%s: cannot fill a %s from %r: %s' % (ev['id'], ev['type'],
-                                                                 ev.get('msg'), e))
-        self._publish(ev['topic'], m)
-
-    def _act_log(self, ev, t0):
-        self.say('  t=%.3f s: %s' % (t0, ev['text']))
-
     # -- the run ---------------------------------------------------------------------------
     def run(self):
         wall0 = time.monotonic()
@@ -813,10 +519,7 @@ class Runner(object):
             w = ev.get('when')
             if isinstance(w, dict) and 'topic' in w:
                 self.cond_by_topic.setdefault(w['topic'], []).append(ev)
-        self.agenda, self.seq_agenda = [], 0
-        if self.report_dir:
-            from .report import Collector
-            self.collector = Collector(self, self.report_dir, 'replay' if self.replay else 'live')
+        self.agenda = Agenda()
         error, log = None, []
         watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
         watchdog.daemon = True
@@ -896,40 +599,35 @@ class Runner(object):
         self.loop_wall = (time.monotonic() - w0, self.t - s0)
 
     def _step_to(self, t_next):
-        try:
-            res = self.step_srv(t_next)
-        except Exception as e:  # noqa: BLE001 - the world died or the watchdog stopped it
-            if self.world_proc is not None:      # roslaunch tears down after its node died
-                try:
-                    self.world_proc.p.wait(15.0)
-                except subprocess.TimeoutExpired:
-                    pass
-            self._check_world()
-            raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
-                           % (self.t, e), self.world_log())
-        return res.sim_time
+        return WorldClock(self.step_srv, self._world_stopped).step_to(t_next)
+
+    def _world_stopped(self, e):
+        if self.world_proc is not None:      # roslaunch tears down after its node died
+            try:
+                self.world_proc.p.wait(15.0)
+            except subprocess.TimeoutExpired:
+                pass
+        self._check_world()
+        raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
+                       % (self.t, e), self.world_log())
 
     def _loop(self, step_to):
         end = self.t0 + self.sc.duration
-        eps = 1e-9
         last_settle = self.t
         # apps answer asynchronously: with apps, wait for them every slice, so that their
         # outputs are timed to within a slice
         settle_every = self.sc.slice if self.sc.apps else SETTLE_EVERY
         while True:
             self._check_world()
-            while self.agenda and self.agenda[0][0] <= self.t + 5e-4:
-                _t, _s, fn, _what = heapq.heappop(self.agenda)
-                fn(self.t)
+            due = self.agenda.pop_due(self.t)
+            while due is not None:
+                due[0](self.t)
+                due = self.agenda.pop_due(self.t)
             if self.t >= end - 5e-4:
                 break
-            nxt = min(end, self.t + (self.sc.slice if self.sc.apps else MAX_SLICE))
-            if self.agenda:
-                nxt = min(nxt, self.agenda[0][0])
-            if self.pending_conditions():
-                nxt = min(nxt, self.t + self.sc.slice)
-            if nxt <= self.t + eps:
-                nxt = self.t + 1e-3
+            nxt = next_stop(self.t, end, self.sc.slice if self.sc.apps else MAX_SLICE,
+                            self.agenda.next_time(), bool(self.pending_conditions()),
+                            self.sc.slice)
             self.t = step_to(nxt)
             # wait for the slice's messages when a topic condition waits for them, and at
             # least every settle_every s of sim time (so apps keep up); short motion slices
@@ -966,8 +664,8 @@ class Runner(object):
         inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes)
         if '/gazebo/environment' not in inputs:
             inputs.append('/gazebo/environment')
-        if getattr(self, '_meta_replay', None):
-            inputs = self._meta_replay['inputs']
+        if getattr(self, 'replay_meta', None):
+            inputs = self.replay_meta['inputs']
         meta = dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
                     real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
                     duration=self.sc.duration,
@@ -1024,14 +722,6 @@ def _probe_field(proto, path):
         v = getattr(v, name)
         if '[' in part:
             return   # element types of arrays: checked on the first message
-
-
-def _set_field(msg, path, value):
-    parts = path.split('.')
-    obj = msg
-    for p in parts[:-1]:
-        obj = getattr(obj, p)
-    setattr(obj, parts[-1], type(getattr(obj, parts[-1]))(value))
 
 
 def run_file(path, **kw):

@@ -1,0 +1,47 @@
+"""The runner's inbox: stamp order, per-topic counts, waiting for exact counts."""
+import threading
+
+from testing_instance.inbox import Inbox
+
+
+def test_take_sorts_by_stamp_then_topic_then_arrival_and_empties():
+    ib = Inbox()
+    ib.put(2.0, '/b', 'b2')
+    ib.put(1.0, '/b', 'b1')
+    ib.put(1.0, '/a', 'a1')
+    ib.put(1.0, '/b', 'b1bis')
+    assert [m for _t, _s, _tp, m in ib.take()] == ['a1', 'b1', 'b1bis', 'b2']
+    assert ib.take() == []
+    assert ib.counts == {'/a': 1, '/b': 3}
+
+
+def test_wait_counts_returns_when_the_messages_arrive_and_names_what_is_missing():
+    ib = Inbox()
+    ib.put(0.0, '/imu', 1)
+
+    def later():
+        for i in range(3):
+            ib.put(0.01 * i, '/imu', i)
+
+    th = threading.Thread(target=later)
+    th.start()
+    assert ib.wait_counts({'/imu': 4}, timeout=30.0) == {}
+    th.join()
+    assert ib.wait_counts({'/imu': 4, '/gps': 2}, timeout=0.05) == {'/gps': (0, 2)}
+
+
+def test_settle_waits_while_messages_keep_arriving():
+    import time
+    ib = Inbox()
+
+    def burst():
+        for i in range(20):
+            ib.put(0.0, '/x', i)
+            time.sleep(0.005)
+
+    th = threading.Thread(target=burst)
+    th.start()
+    ib.put(0.0, '/x', -1)
+    ib.settle(quiet=0.2, longest=30.0)      # gaps are 5 ms: returns only after the burst
+    assert ib.counts == {'/x': 21}
+    th.join()

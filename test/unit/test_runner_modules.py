@@ -1,0 +1,79 @@
+"""The runner's split modules: results/procs/recording need no runner, replay no import circle."""
+import ast
+import json
+import os
+
+import rosbag
+import rospy
+from std_msgs.msg import String
+
+import testing_instance
+from testing_instance import procs, recording, results, runner
+
+PKG = os.path.dirname(testing_instance.__file__)
+
+
+def _imports(mod):
+    tree = ast.parse(open(os.path.join(PKG, mod + '.py')).read())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            names.add(node.module)
+    return names
+
+
+def test_replay_and_pieces_do_not_import_the_runner():
+    for mod in ('replay', 'results', 'procs', 'recording'):
+        assert 'runner' not in _imports(mod), mod
+    assert {'results', 'procs', 'recording'} <= _imports('runner')
+
+
+def test_runner_keeps_its_public_names():
+    assert runner.Result is results.Result and runner.RunError is results.RunError
+    assert runner.write_junit is results.write_junit and runner.free_port is procs.free_port
+    assert (runner.EXIT_PASS, runner.EXIT_FAIL, runner.EXIT_ERROR) == (0, 1, 2)
+    assert runner.META_TOPIC == recording.META_TOPIC == '/scenario/meta'
+
+
+def test_read_meta_of_a_bag_with_and_without_meta(tmp_path):
+    p = str(tmp_path / 'a.bag')
+    with rosbag.Bag(p, 'w') as b:
+        b.write('/other', String('x'), rospy.Time(1))
+        b.write(recording.META_TOPIC, String(json.dumps({'seed': 7, 'inputs': ['/imu']})),
+                rospy.Time(2))
+    with rosbag.Bag(p) as b:
+        assert recording.read_meta(b) == {'seed': 7, 'inputs': ['/imu']}
+    q = str(tmp_path / 'b.bag')
+    with rosbag.Bag(q, 'w') as b:
+        b.write('/other', String('x'), rospy.Time(1))
+    with rosbag.Bag(q) as b:
+        assert recording.read_meta(b) is None
+
+
+def test_tail_of_a_log(tmp_path):
+    p = tmp_path / 'l.log'
+    p.write_text('\n'.join(str(i) for i in range(40)) + '\n')
+    assert procs.tail(str(p), 3) == ['37', '38', '39']
+    assert procs.tail(str(tmp_path / 'missing.log')) == []
+
+
+def test_replay_uses_only_the_runners_public_api():
+    tree = ast.parse(open(os.path.join(PKG, 'replay.py')).read())
+    private = sorted({n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
+                      and isinstance(n.value, ast.Name) and n.value.id == 'r'
+                      and n.attr.startswith('_')})
+    assert private == []
+    for name in ('start_roscore', 'wait_master', 'init_ros', 'open_bag', 'start_apps',
+                 'subscribe_all', 'write_meta', 'check_world', 'settle', 'drain',
+                 'start_after', 'master_uri', 'missing_topics_are_errors'):
+        assert hasattr(runner.Runner, name), name
+
+
+def test_every_scenario_action_has_its_method_in_actions():
+    from testing_instance import actions, scenario
+    names = getattr(scenario, 'ACTIONS', None)
+    methods = {m[len('_act_'):] for m in vars(actions.Actions) if m.startswith('_act_')}
+    assert issubclass(runner.Runner, actions.Actions)
+    assert {'walk', 'publish', 'fault', 'set_environment'} <= methods
+    if names is not None:
+        assert set(names) <= methods

@@ -1,0 +1,60 @@
+"""The runner's inbox: messages of the subscribed topics, taken slice by slice in stamp order.
+
+Subscriber threads ``put`` (stamp, topic, msg); the loop ``take``s the slice's batch sorted
+by (stamp, topic, arrival). The inbox counts what arrived per topic, so a clock source that
+knows how many messages a slice published can wait for exactly those (``wait_counts``);
+``settle`` is the older rule (no message for ``quiet`` s of wall time).
+"""
+import threading
+import time
+
+__all__ = ['Inbox']
+
+
+class Inbox(object):
+    def __init__(self):
+        self._cv = threading.Condition()
+        self._buffer = []
+        self._seq = 0
+        self.counts = {}                  # topic -> messages received so far
+        self.last_wall = time.monotonic()
+
+    def put(self, t, topic, msg):
+        with self._cv:
+            self._seq += 1
+            self._buffer.append((t, self._seq, topic, msg))
+            self.counts[topic] = self.counts.get(topic, 0) + 1
+            self.last_wall = time.monotonic()
+            self._cv.notify_all()
+
+    def take(self):
+        """Everything received since the last take, as (t, seq, topic, msg) sorted by
+        (stamp, topic, arrival)."""
+        with self._cv:
+            batch, self._buffer = self._buffer, []
+        batch.sort(key=lambda x: (x[0], x[2], x[1]))
+        return batch
+
+    def settle(self, quiet=0.02, longest=3.0):
+        """Wait until no message arrived for ``quiet`` s of wall time (at most ``longest``)."""
+        t0 = time.monotonic()
+        with self._cv:
+            while True:
+                now = time.monotonic()
+                idle = now - max(self.last_wall, t0)
+                if idle >= quiet or now - t0 > longest:
+                    return
+                self._cv.wait(min(quiet - idle, longest - (now - t0)) + 1e-4)
+
+    def wait_counts(self, want, timeout):
+        """Wait until counts[topic] >= n for every (topic, n) in want; return what is still
+        missing as {topic: (received, wanted)} ({} when everything arrived)."""
+        deadline = time.monotonic() + timeout
+        with self._cv:
+            while True:
+                missing = {tp: (self.counts.get(tp, 0), n) for tp, n in want.items()
+                           if self.counts.get(tp, 0) < n}
+                left = deadline - time.monotonic()
+                if not missing or left <= 0:
+                    return missing
+                self._cv.wait(left)

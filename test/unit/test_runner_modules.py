@@ -10,7 +10,7 @@ from std_msgs.msg import String
 import testing_instance
 from testing_instance import procs, recording, results, runner
 
-PKG = os.path.dirname(testing_instance.__file__)
+PKG = os.path.dirname(testing_instance.runner.__file__)  # the sources (the package's __init__ may be catkin's devel shim)
 
 
 def _imports(mod):

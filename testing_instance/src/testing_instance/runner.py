@@ -520,6 +520,9 @@ class Runner(Actions):
             if isinstance(w, dict) and 'topic' in w:
                 self.cond_by_topic.setdefault(w['topic'], []).append(ev)
         self.agenda = Agenda()
+        if self.report_dir:
+            from .report import Collector
+            self.collector = Collector(self, self.report_dir, 'replay' if self.replay else 'live')
         error, log = None, []
         watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
         watchdog.daemon = True

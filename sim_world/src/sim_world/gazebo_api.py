@@ -341,7 +341,7 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
             if now >= next_pub:
                 api.publish()
                 next_pub = now + max(pub_period, 0.1)
-            time.sleep(0.01)
+            api.reset_anchor.wait(0.01)     # step_world / unpause wake it at once
             wall0, sim0 = mono(), world.sim_time
             continue
         stop = api.step_until

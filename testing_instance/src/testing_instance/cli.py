@@ -131,7 +131,10 @@ def main(argv=None, prog='run_scenario'):
         return check(files, sets=a.set or (), max_runs=a.max_runs)
     if a.sweep or a.cluster:
         from . import sweep
-        return sweep.main(files, a)
+        remote = None
+        if a.cluster:
+            from .cluster import run_cluster as remote
+        return sweep.main(files, a, remote=remote)
     if a.shard:
         files = _shard(files, a.shard)
     if not files:

@@ -307,8 +307,11 @@ def _shard(runs, spec):
     return [r for k, r in enumerate(runs) if k % n == i]
 
 
-def main(files, a, out=print):
-    """run_scenario --sweep / --cluster: plan, run, summarise. Exit: the worst run's."""
+def main(files, a, out=print, remote=None):
+    """run_scenario --sweep / --cluster: plan, run, summarise. Exit: the worst run's.
+    ``remote``: with --cluster, the function that runs the plan on the cluster
+    (``cluster.run_cluster``, given by the command line; a RuntimeError from it is one
+    ERROR line, exit 2); this module does not import the cluster module."""
     try:
         runs = plan(files, sweep=a.sweep, sets=a.set or (), max_runs=a.max_runs, seed=a.seed)
     except ScenarioError as e:
@@ -324,11 +327,9 @@ def main(files, a, out=print):
     layout = Layout(a.junit, a.record, getattr(a, 'out', None), getattr(a, 'json', None))
     t0 = time.monotonic()
     if a.cluster:
-        from . import cluster
         try:
-            results = cluster.run_cluster(runs, a.cluster, layout, rtf=a.rtf,
-                                          cpus=a.cpus_per_run, out=out)
-        except cluster.ClusterError as e:
+            results = remote(runs, a.cluster, layout, rtf=a.rtf, cpus=a.cpus_per_run, out=out)
+        except RuntimeError as e:      # cluster.ClusterError: unreachable, no Ray, ...
             out('ERROR %s' % e)
             return EXIT_ERROR
         mode = 'cluster'

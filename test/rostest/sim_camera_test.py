@@ -109,8 +109,15 @@ class SimCamera(unittest.TestCase):
         self.assertLess(pts[60, 10, 0], 0.0)
         self.assertGreater(pts[110, 80, 1], 0.0)
         # the colours are those of the image with the same stamp
-        img = next((i for i in reversed(self.images) if i.header.stamp == cloud.header.stamp), None)
-        self.assertIsNotNone(img)
+        # (the image and the cloud come over two connections: the image of that stamp may
+        # arrive after the cloud, more so on a loaded machine)
+        img, deadline = None, time.time() + 10
+        while img is None and time.time() < deadline:
+            img = next((i for i in reversed(self.images)
+                        if i.header.stamp == cloud.header.stamp), None)
+            if img is None:
+                time.sleep(0.02)
+        self.assertIsNotNone(img, 'no image stamped %s' % cloud.header.stamp.to_sec())
         rgb = image_to_rgb(img)
         packed = pts[:, :, 3].copy().view(np.uint32)
         self.assertTrue(np.array_equal((packed >> 16) & 255, rgb[:, :, 0]))

@@ -111,13 +111,9 @@ def check(files, sets=(), max_runs=None, out=print):
 
 
 def _shard(files, spec):
-    try:
-        i, n = (int(x) for x in spec.split('/'))
-        if not 0 <= i < n:
-            raise ValueError
-    except ValueError:
-        raise SystemExit('--shard must be I/N with 0 <= I < N, got %r' % spec)
-    return [f for k, f in enumerate(sorted(files)) if k % n == i]
+    """The farm's share of the files: sorted, then dealt round robin (sweep.shard)."""
+    from .sweep import shard
+    return shard(sorted(files), spec)
 
 
 def main(argv=None, prog='run_scenario'):

@@ -75,14 +75,9 @@ class ScenarioFailure(Exception):
     pass
 
 
-class InvalidScenario(pytest.Item):
-    def __init__(self, *, problems, **kw):
-        super().__init__(**kw)
-        self.problems = problems
-
-    def runtest(self):
-        raise ScenarioFailure('ERROR scenario file %s is invalid:\n%s' % (
-            self.path, '\n'.join('  ' + p for p in self.problems)))
+class _ScenarioReport(pytest.Item):
+    """What both item kinds report: a ScenarioFailure as its own text (the FAIL lines),
+    the scenario's name as the location."""
 
     def repr_failure(self, excinfo, style=None):
         if isinstance(excinfo.value, ScenarioFailure):
@@ -91,6 +86,16 @@ class InvalidScenario(pytest.Item):
 
     def reportinfo(self):
         return self.path, 0, 'scenario %s' % self.name
+
+
+class InvalidScenario(_ScenarioReport):
+    def __init__(self, *, problems, **kw):
+        super().__init__(**kw)
+        self.problems = problems
+
+    def runtest(self):
+        raise ScenarioFailure('ERROR scenario file %s is invalid:\n%s' % (
+            self.path, '\n'.join('  ' + p for p in self.problems)))
 
 
 def _free(port):
@@ -122,7 +127,7 @@ def worker_port(config):
     return free_port()
 
 
-class ScenarioItem(pytest.Item):
+class ScenarioItem(_ScenarioReport):
     def __init__(self, *, run, **kw):
         super().__init__(**kw)
         self.run = run
@@ -154,10 +159,3 @@ class ScenarioItem(pytest.Item):
             raise ScenarioFailure('\n'.join([head] + lines + [
                 'reproduce: ' + self.run.reproduce()]))
 
-    def repr_failure(self, excinfo, style=None):
-        if isinstance(excinfo.value, ScenarioFailure):
-            return str(excinfo.value)
-        return super().repr_failure(excinfo)
-
-    def reportinfo(self):
-        return self.path, 0, 'scenario %s' % self.name

@@ -297,14 +297,16 @@ def write_outputs(summary, layout):
     return lines
 
 
-def _shard(runs, spec):
+def shard(items, spec):
+    """``--shard I/N``: every N-th item from the I-th (0-based), in the order given (the
+    farm sorts its files first; a sweep keeps its plan order)."""
     try:
         i, n = (int(x) for x in spec.split('/'))
         if not 0 <= i < n:
             raise ValueError
     except ValueError:
         raise SystemExit('--shard must be I/N with 0 <= I < N, got %r' % spec)
-    return [r for k, r in enumerate(runs) if k % n == i]
+    return [x for k, x in enumerate(items) if k % n == i]
 
 
 def main(files, a, out=print, remote=None):
@@ -320,7 +322,7 @@ def main(files, a, out=print, remote=None):
             out('  ' + p)
         return EXIT_ERROR
     if a.shard:
-        runs = _shard(runs, a.shard)
+        runs = shard(runs, a.shard)
     if not runs:
         out('ERROR no runs')
         return EXIT_ERROR

@@ -40,10 +40,21 @@ from sim_world.plugins.params import Param
 from sim_world.plugins.device import Actuator
 from sim_world.plugins.sensor import Sensor
 
-__all__ = ['AudioScene', 'scene_of', 'Signal', 'FileSignal', 'ToneSignal', 'StreamSignal',
-           'AudioSource', 'Microphone', 'read_sound', 'SPEED_OF_SOUND']
+__all__ = ['AudioScene', 'scene_of', 'mono_chunk', 'Signal', 'FileSignal', 'ToneSignal',
+           'StreamSignal', 'AudioSource', 'Microphone', 'read_sound', 'SPEED_OF_SOUND']
 
 SPEED_OF_SOUND = 343.0
+
+
+def mono_chunk(samples, sample_rate, channels=1):
+    """An AudioData chunk's interleaved samples as one mono float array (channels
+    averaged), or None when the chunk is not valid (rate <= 0, no channel, a sample count
+    that is not a multiple of the channels, a non-finite sample)."""
+    x = np.asarray(samples, float)
+    if not (sample_rate > 0 and channels >= 1 and len(x) % channels == 0
+            and np.all(np.isfinite(x))):
+        return None
+    return x.reshape(-1, channels).mean(axis=1) if channels > 1 else x
 
 
 def scene_of(world):
@@ -285,14 +296,12 @@ class AudioSource(Actuator):
 
     def push_audio(self, samples, sample_rate, channels=1):
         """Queue PCM for the speaker (taken at the next tick)."""
-        x = np.asarray(samples, float)
-        if not (sample_rate > 0 and channels >= 1 and len(x) % channels == 0
-                and np.all(np.isfinite(x))):
+        x = mono_chunk(samples, sample_rate, channels)
+        if x is None:
             self.log_error('%s: audio chunk with sample_rate %r, channels %r, %d samples is '
-                           'not valid; ignored' % (self.label, sample_rate, channels, len(x)))
+                           'not valid; ignored' % (self.label, sample_rate, channels,
+                                                   len(samples)))
             return False
-        if channels > 1:
-            x = x.reshape(-1, channels).mean(axis=1)
         self.queue((x, float(sample_rate)))
         return True
 

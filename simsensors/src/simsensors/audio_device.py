@@ -247,6 +247,7 @@ class SpeakerSink(object):
 def main():
     import rospy
     from mobile_device_sim.msg import AudioData
+    from .audio import mono_chunk
     rospy.init_node('audio_device')
     mic_topic = rospy.get_param('~microphone_topic', '/mobile_device/microphone/audio')
     spk_topic = rospy.get_param('~speaker_topic', '/mobile_device/speaker/audio')
@@ -277,15 +278,12 @@ def main():
             devices.append(mic)
 
             def on_chunk(m):
-                x = np.asarray(m.samples, float)
-                if not (m.sample_rate > 0 and m.channels >= 1 and len(x) % m.channels == 0
-                        and np.all(np.isfinite(x))):
+                x = mono_chunk(m.samples, m.sample_rate, m.channels)
+                if x is None:
                     rospy.logerr('audio_device: chunk on %s with sample_rate %r, channels %r,'
                                  ' %d samples is not valid; ignored'
-                                 % (mic_topic, m.sample_rate, m.channels, len(x)))
+                                 % (mic_topic, m.sample_rate, m.channels, len(m.samples)))
                     return
-                if m.channels > 1:
-                    x = x.reshape(-1, m.channels).mean(axis=1)
                 mic.write(x, m.sample_rate)
             rospy.Subscriber(mic_topic, AudioData, on_chunk, queue_size=100)
         if spk_topic:

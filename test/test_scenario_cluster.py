@@ -40,6 +40,39 @@ def statuses(out):
     return s, {r['name']: r['status'] for r in s['runs']}
 
 
+def _raylet_pid(node):
+    from ray._private import ray_constants
+    return node.all_processes[ray_constants.PROCESS_TYPE_RAYLET][0].process.pid
+
+
+def _children():
+    kids = {}
+    for d in os.listdir('/proc'):
+        if d.isdigit():
+            try:
+                with open('/proc/%s/stat' % d) as f:
+                    ppid = int(f.read().rsplit(')', 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            kids.setdefault(ppid, []).append(int(d))
+    return kids
+
+
+def _runs_below(pid):
+    """The run_scenario processes among the descendants of pid."""
+    kids, todo, found = _children(), [pid], []
+    while todo:
+        for k in kids.get(todo.pop(), []):
+            todo.append(k)
+            try:
+                with open('/proc/%d/cmdline' % k, 'rb') as f:
+                    if b'run_scenario' in f.read():
+                        found.append(k)
+            except OSError:
+                pass
+    return found
+
+
 @pytest.fixture
 def cluster():
     """A head node without CPUs (the GCS; no runs) and two worker nodes with one CPU each.
@@ -95,7 +128,13 @@ def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
     m = re.search(r'submitted through node (\w+)', first)
     assert m, first
     victim = [w for w in workers if not w.node_id.startswith(m.group(1))][0]
-    time.sleep(8.0)                       # both runs under way (a run takes ~10-25 s here)
+    # kill the victim once its run is under way: a run_scenario below its raylet (a fixed
+    # sleep raced: on a faster machine both runs had finished before the kill)
+    deadline = time.monotonic() + 300
+    while not _runs_below(_raylet_pid(victim)):
+        assert proc.poll() is None and time.monotonic() < deadline, 'no run on the victim'
+        time.sleep(0.05)
+    time.sleep(1.0)
     c.remove_node(victim, allow_graceful=False)
     text, _ = proc.communicate(timeout=600)
     text = first + text

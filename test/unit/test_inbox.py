@@ -25,9 +25,19 @@ def test_wait_counts_returns_when_the_messages_arrive_and_names_what_is_missing(
 
     th = threading.Thread(target=later)
     th.start()
-    assert ib.wait_counts({'/imu': 4}, timeout=30.0) == {}
+    assert ib.wait_counts({'/imu': 4}, timeout=30.0, world=False) == {}
     th.join()
-    assert ib.wait_counts({'/imu': 4, '/gps': 2}, timeout=0.05) == {'/gps': (0, 2)}
+    assert ib.wait_counts({'/imu': 4, '/gps': 2}, timeout=0.05, world=False) == \
+        {'/gps': (0, 2)}
+
+
+def test_world_counts_only_count_the_world_nodes_messages():
+    ib = Inbox()
+    ib.put(0.0, '/imu', 'from an app')
+    assert ib.wait_counts({'/imu': 1}, timeout=0.02) == {'/imu': (0, 1)}
+    ib.put(0.0, '/imu', 'from the world', from_world=True)
+    assert ib.wait_counts({'/imu': 1}, timeout=0.02) == {}
+    assert ib.counts == {'/imu': 2} and ib.from_world == {'/imu': 1}
 
 
 def test_settle_waits_while_messages_keep_arriving():

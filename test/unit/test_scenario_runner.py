@@ -57,3 +57,14 @@ def test_shards_deal_the_sorted_files_round_robin():
                   cli._shard(files, '2/3')) == sorted(files)
     with pytest.raises(SystemExit):
         cli._shard(files, '2/2')
+
+
+def test_junit_holds_log_tails_with_colour_codes_and_control_characters(tmp_path):
+    """A world's log tail carries roslaunch's ANSI colours: the JUnit file stays valid XML
+    (found by the process-fault tests: the file was not well-formed)."""
+    import xml.etree.ElementTree as ET
+    from testing_instance.results import Result, write_junit
+    r = Result('s', [], 'the world died', ['\x1b[1m[spawn_phone-3] finished\x1b[0m', 'bell\x07'])
+    write_junit(r, str(tmp_path / 'j.xml'))
+    err = ET.parse(str(tmp_path / 'j.xml')).getroot().find('testcase/error')
+    assert err.text.splitlines()[1:] == ['[spawn_phone-3] finished', 'bell']

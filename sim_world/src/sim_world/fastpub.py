@@ -19,7 +19,7 @@ import logging
 import threading
 import time
 
-__all__ = ['NoYieldConnection', 'no_yield', 'publisher']
+__all__ = ['NoYieldConnection', 'handed_to', 'no_yield', 'publisher']
 
 log = logging.getLogger('sim_world.fastpub')
 
@@ -33,14 +33,18 @@ class NoYieldConnection(_Queued):
     """rospy's QueuedConnection without the ``time.sleep(0)`` after each message while the
     writer thread keeps up; once half the queue is waiting (the writer is starved of the
     GIL) it yields like rospy, so messages are not dropped just because the publishing
-    thread never lets go. ``dropped`` counts the messages the full queue lost."""
+    thread never lets go. ``handed`` counts the messages handed to this connection (latched
+    replays included), ``dropped`` those the full queue lost: the testing instance's slice
+    handshake waits for exactly ``handed - dropped`` (see :func:`handed_to`)."""
     dropped = 0
+    handed = 0
 
     def write_data(self, data):
         with self._lock:
             if self._error:
                 error, self._error = self._error, None
                 raise error
+            self.handed += 1
             if self._queue_size > 0 and len(self._queue) >= self._queue_size:
                 del self._queue[0]
                 self.dropped += 1
@@ -183,3 +187,28 @@ def publisher(topic, msg_type, queue_size=10, inline_local=False, **kw):
     import rospy
     return no_yield(rospy.Publisher(topic, msg_type, queue_size=queue_size, **kw),
                     inline_local=inline_local)
+
+
+def handed_to(subscriber, topic_manager=None):
+    """{topic: (handed, dropped)} over this node's publisher connections to the node
+    ``subscriber`` (its caller id) that go through :class:`NoYieldConnection`: how many
+    messages each topic handed to that subscriber since its connection opened, and how
+    many of those a full queue dropped. Topics of publishers outside :func:`no_yield` are
+    not listed (their counts are unknown)."""
+    if topic_manager is None:
+        from rospy.impl.registration import get_topic_manager
+        topic_manager = get_topic_manager()
+    out = {}
+    if topic_manager is None or not subscriber:
+        return out
+    for topic, _typ in topic_manager.get_publications():
+        impl = topic_manager.get_publisher_impl(topic)
+        if impl is None:
+            continue
+        for c in list(impl.connections):
+            if isinstance(c, NoYieldConnection) and \
+                    getattr(c, 'endpoint_id', None) == subscriber:
+                h, d = out.get(topic, (0, 0))
+                with c._lock:
+                    out[topic] = (h + c.handed, d + c.dropped)
+    return out

@@ -84,9 +84,10 @@ class GazeboRosApi(object):
         # yield (sim_world.fastpub), which cost the world thread more than the message itself;
         # this node's own /clock subscriber (use_sim_time) is called directly
         self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10, inline_local=True)
-        self.states_pub = rospy.Publisher('/gazebo/model_states', ModelStates, queue_size=1)
-        self.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
-        self.tf_static_pub = rospy.Publisher('/tf_static', TFMessage, queue_size=100, latch=True)
+        self.states_pub = fastpub.publisher('/gazebo/model_states', ModelStates, queue_size=1)
+        self.tf_pub = fastpub.publisher('/tf', TFMessage, queue_size=100)
+        self.tf_static_pub = fastpub.publisher('/tf_static', TFMessage, queue_size=100,
+                                               latch=True)
         self._last_clock = None
         # /clock goes out right before sensors publish, so a subscriber's rospy time is the
         # frame's stamp when the frame arrives (rostest's hztest measures rates that way)
@@ -227,11 +228,11 @@ class GazeboRosApi(object):
         """Run until sim time req.until (the first step at or after it), then pause."""
         if self.step_until is not None:
             return StepWorldResponse(False, 'StepWorld: another step_world call is running',
-                                     self.world.sim_time)
+                                     self.world.sim_time, [], [], [])
         until = float(req.until)
         if not math.isfinite(until):
             return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
-                                     % until, self.world.sim_time)
+                                     % until, self.world.sim_time, [], [], [])
         self.step_done.clear()
         self.step_until = until
         self.paused = False
@@ -240,8 +241,11 @@ class GazeboRosApi(object):
             if rospy.is_shutdown():
                 break
         self.step_until = None
+        counts = fastpub.handed_to(req.subscriber) if req.subscriber else {}
+        topics = sorted(counts)
         return StepWorldResponse(True, 'StepWorld: paused at %.6f' % self.world.sim_time,
-                                 self.world.sim_time)
+                                 self.world.sim_time, topics, [counts[t][0] for t in topics],
+                                 [counts[t][1] for t in topics])
 
     def _step_reached(self):
         """Run-loop side of step_world: pause once sim time reached the target."""

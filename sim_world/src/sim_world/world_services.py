@@ -14,6 +14,7 @@ from mobile_device_sim.msg import EnvironmentValue
 from mobile_device_sim.srv import (SetEnvironment, SetEnvironmentResponse, SetSensorFault,
                                    SetSensorFaultResponse)
 
+from . import fastpub
 from .environment import EnvironmentError
 from .plugins.sensor import inject_fault
 
@@ -30,8 +31,8 @@ def environment_msg(env, stamp):
 class WorldServices(object):
     def __init__(self, world):
         self.world = world
-        self.env_pub = rospy.Publisher('/gazebo/environment', EnvironmentMsg, queue_size=1,
-                                       latch=True)
+        self.env_pub = fastpub.publisher('/gazebo/environment', EnvironmentMsg, queue_size=10,
+                                         latch=True)
         self.services = [
             rospy.Service('/gazebo/set_environment', SetEnvironment, self.set_environment),
             rospy.Service('/gazebo/set_sensor_fault', SetSensorFault, self.set_sensor_fault),

@@ -1,9 +1,11 @@
 """The runner's inbox: messages of the subscribed topics, taken slice by slice in stamp order.
 
 Subscriber threads ``put`` (stamp, topic, msg); the loop ``take``s the slice's batch sorted
-by (stamp, topic, arrival). The inbox counts what arrived per topic, so a clock source that
-knows how many messages a slice published can wait for exactly those (``wait_counts``);
-``settle`` is the older rule (no message for ``quiet`` s of wall time).
+by (stamp, topic, arrival). The inbox counts what arrived per topic, all of it (``counts``)
+and what came from the world node (``from_world``), so the runner, told by the world how many
+messages it handed to the runner's connections, waits for exactly those (``wait_counts``);
+``settle`` (no message for ``quiet`` s of wall time) is left for topics whose publishers
+do not count (other nodes of a launch file).
 """
 import threading
 import time
@@ -17,13 +19,16 @@ class Inbox(object):
         self._buffer = []
         self._seq = 0
         self.counts = {}                  # topic -> messages received so far
+        self.from_world = {}              # topic -> of those, from the world node
         self.last_wall = time.monotonic()
 
-    def put(self, t, topic, msg):
+    def put(self, t, topic, msg, from_world=False):
         with self._cv:
             self._seq += 1
             self._buffer.append((t, self._seq, topic, msg))
             self.counts[topic] = self.counts.get(topic, 0) + 1
+            if from_world:
+                self.from_world[topic] = self.from_world.get(topic, 0) + 1
             self.last_wall = time.monotonic()
             self._cv.notify_all()
 
@@ -46,14 +51,21 @@ class Inbox(object):
                     return
                 self._cv.wait(min(quiet - idle, longest - (now - t0)) + 1e-4)
 
-    def wait_counts(self, want, timeout):
-        """Wait until counts[topic] >= n for every (topic, n) in want; return what is still
-        missing as {topic: (received, wanted)} ({} when everything arrived)."""
+    def wake(self, timeout):
+        """Wait up to timeout s for the next message."""
+        with self._cv:
+            self._cv.wait(timeout)
+
+    def wait_counts(self, want, timeout, world=True):
+        """Wait until from_world[topic] (all counts with world=False) >= n for every
+        (topic, n) in want; return what is still missing as {topic: (received, wanted)}
+        ({} when everything arrived)."""
         deadline = time.monotonic() + timeout
+        have = self.from_world if world else self.counts
         with self._cv:
             while True:
-                missing = {tp: (self.counts.get(tp, 0), n) for tp, n in want.items()
-                           if self.counts.get(tp, 0) < n}
+                missing = {tp: (have.get(tp, 0), n) for tp, n in want.items()
+                           if have.get(tp, 0) < n}
                 left = deadline - time.monotonic()
                 if not missing or left <= 0:
                     return missing

@@ -5,7 +5,8 @@ import subprocess
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Proc', 'free_port', 'tail']
+__all__ = ['Proc', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
+           'read_chars', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
 
 
 def tail(path, n=25):
@@ -44,3 +45,131 @@ class Proc(object):
                     pass
                 self.p.wait(5)
         self.log.close()
+
+
+# -- what /proc says about a process tree (the runner's evidence about apps) ----------------
+def _children_map():
+    kids = {}
+    for d in os.listdir('/proc'):
+        if not d.isdigit():
+            continue
+        try:
+            with open('/proc/%s/stat' % d, 'rb') as f:
+                ppid = int(f.read().rsplit(b')', 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        kids.setdefault(ppid, []).append(int(d))
+    return kids
+
+
+def descendants(pid, kids=None):
+    """pid and every process below it."""
+    kids = _children_map() if kids is None else kids
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo.extend(kids.get(p, ()))
+    return out
+
+
+def cmdline(pid):
+    try:
+        with open('/proc/%d/cmdline' % pid, 'rb') as f:
+            return [a.decode('utf-8', 'replace') for a in f.read().split(b'\0') if a]
+    except OSError:
+        return []
+
+
+def state(pid):
+    """The process's state letter (R, S, D, T, t, Z...), or None when it is gone."""
+    try:
+        with open('/proc/%d/stat' % pid, 'rb') as f:
+            return f.read().rsplit(b')', 1)[1].split()[0].decode()
+    except (OSError, IndexError):
+        return None
+
+
+def alive(pid):
+    return state(pid) not in (None, 'Z', 'X')
+
+
+def thread_states(pid):
+    """The state letters of every thread of pid ([] when it is gone)."""
+    out = []
+    try:
+        tids = os.listdir('/proc/%d/task' % pid)
+    except OSError:
+        return out
+    for tid in tids:
+        try:
+            with open('/proc/%d/task/%s/stat' % (pid, tid), 'rb') as f:
+                out.append(f.read().rsplit(b')', 1)[1].split()[0].decode())
+        except (OSError, IndexError):
+            pass
+    return out
+
+
+def read_chars(pid):
+    """Bytes the process has read so far (/proc/PID/io rchar), or None."""
+    try:
+        with open('/proc/%d/io' % pid) as f:
+            for ln in f:
+                if ln.startswith('rchar:'):
+                    return int(ln.split()[1])
+    except (OSError, ValueError):
+        return None
+    return None
+
+
+def socket_inodes(pid):
+    out = set()
+    try:
+        fds = os.listdir('/proc/%d/fd' % pid)
+    except OSError:
+        return out
+    for fd in fds:
+        try:
+            link = os.readlink('/proc/%d/fd/%s' % (pid, fd))
+        except OSError:
+            continue
+        if link.startswith('socket:['):
+            out.add(int(link[8:-1]))
+    return out
+
+
+def tcp_queues():
+    """{socket inode: (bytes queued to send, bytes received and not yet read)} for every
+    established TCP socket of this network namespace."""
+    out = {}
+    for name in ('/proc/net/tcp', '/proc/net/tcp6'):
+        try:
+            with open(name) as f:
+                next(f, None)
+                for ln in f:
+                    p = ln.split()
+                    if len(p) < 10 or p[3] != '01':           # ESTABLISHED only
+                        continue
+                    tx, rx = p[4].split(':')
+                    out[int(p[9])] = (int(tx, 16), int(rx, 16))
+        except OSError:
+            pass
+    return out
+
+
+_FIRST = [True]
+
+
+def first_run():
+    """True the first time it is asked in this process (a farm's later runs: False)."""
+    first, _FIRST[0] = _FIRST[0], False
+    return first
+
+
+def age(pid=None):
+    """Seconds since the process (default: this one) started (/proc/PID/stat starttime)."""
+    pid = os.getpid() if pid is None else pid
+    with open('/proc/%d/stat' % pid, 'rb') as f:
+        start = int(f.read().rsplit(b')', 1)[1].split()[19]) / os.sysconf('SC_CLK_TCK')
+    with open('/proc/uptime') as f:
+        return float(f.read().split()[0]) - start

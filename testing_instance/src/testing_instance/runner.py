@@ -26,7 +26,9 @@ import tempfile
 import threading
 import time
 
+from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
+from .appwatch import AppHung, AppWatch
 from .clock import WorldClock
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
 from .inbox import Inbox
@@ -44,6 +46,7 @@ LAUNCHES = {
 MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
                          # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
 SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
+HANDSHAKE_WATCHDOG = 30.0    # wall s: the world's counted messages must be in by then
 
 __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
            'EXIT_ERROR']
@@ -79,6 +82,15 @@ class Runner(Actions):
         self.t = 0.0
         self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
+        self.published = None      # {topic: n} the world handed us, from the last step
+        self.world_node = None     # the caller id serving /gazebo/step_world
+        self.watch = {}            # what (e.g. 'the world node /sim_world') -> pid
+        self.app_procs = []        # [(node name, Proc)]
+        self.apps_finished = set()
+        self.appwatch = None
+        self.uncounted = set()     # subscribed topics with publishers that do not count
+        self.world_topics = set()  # subscribed topics the world publishes
+        self.sync_wall = 0.0       # wall s spent waiting for slices to complete
 
     # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
     def start_after(self, event_id, t):
@@ -194,6 +206,9 @@ class Runner(Actions):
                       cwd=self.sc.dir)
             self.procs.append(p)
             names.append(('/' + name, p))
+        self.app_procs = list(names)
+        self.appwatch = AppWatch(self.app_procs, self._own_pending, warn=self.say) \
+            if names else None
         # wait until every app is registered with the master (its topics are known)
         m = rosgraph.Master('/scenario_runner')
         deadline = time.monotonic() + min(self.sc.timeout, 60.0)
@@ -283,6 +298,13 @@ class Runner(Actions):
         self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
         self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
         rospy.wait_for_service('/gazebo/step_world', timeout=self.sc.timeout)
+        import rosgraph
+        try:
+            _p, _s, services = rosgraph.Master('/scenario_runner').getSystemState()
+            self.world_node = next((ns[0] for name, ns in services
+                                    if name == '/gazebo/step_world' and ns), None)
+        except Exception:  # noqa: BLE001 - counted topics then fall back to a quiet period
+            self.world_node = None
 
     def proxy(self, name, typ):
         import rospy
@@ -310,17 +332,64 @@ class Runner(Actions):
                         ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))
 
     def _check_world(self):
+        """Every process of the run still there? An error naming the first one that is not,
+        with its log tail (also the apps: an app that exits 0 has finished, one that exits
+        otherwise or is killed crashed)."""
         if self.timed_out:
             raise RunError('watchdog: the scenario did not finish within %g s of wall time '
                            '(timeout)' % self.sc.timeout, self.world_log())
+        for what, pid in self.watch.items():
+            if not procs.alive(pid):
+                raise RunError('%s died at sim time %.3f s (%s, pid %d, is gone)' % (
+                    'the ROS master' if 'master' in what else 'the world', self.t, what, pid),
+                    self.world_log() + self._ros_log(what))
         if self.world_proc is not None and not self.world_proc.alive():
             raise RunError('the world died at sim time %.3f s (exit code %s)'
                            % (self.t, self.world_proc.p.returncode), self.world_log())
+        for name, p in self.app_procs:
+            code = p.p.poll()
+            if code is None or name in self.apps_finished:
+                continue
+            if code == 0:
+                self.apps_finished.add(name)
+                self.say('app %s finished at sim time %.3f s (exit code 0)' % (name, self.t))
+                continue
+            how = 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
+            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, self.t, how),
+                           _tail(p.log_path))
+
+    def _ros_log(self, what):
+        """The log tail of the ROS log of a watched process (rosmaster: master.log)."""
+        d = os.path.join(self.run_dir, 'log')
+        key = 'master' if 'master' in what else what.rsplit('/', 1)[-1]
+        lines = []
+        for root, _dirs, files in os.walk(d):
+            for f in sorted(files):
+                if f.startswith(key) and f.endswith('.log'):
+                    lines += ['%s:' % f] + _tail(os.path.join(root, f), 10)
+        return lines
+
+    def _find_watched(self):
+        """The master and the world node below roslaunch: watched by pid (roslaunch keeps
+        running when its master dies)."""
+        if self.world_proc is None:
+            return
+        for pid in procs.descendants(self.world_proc.p.pid)[1:]:
+            cl = procs.cmdline(pid)
+            if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
+                self.watch['the ROS master (rosmaster)'] = pid
+            elif '__name:=sim_world' in cl:
+                self.watch['the world node /sim_world'] = pid
 
     def _topic_types(self):
         import rosgraph
         # topics somebody publishes (getTopicTypes also lists topics only subscribed to)
-        return dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
+        try:
+            return dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
+        except (OSError, rosgraph.MasterException) as e:
+            self._check_world()
+            raise RunError('the ROS master stopped answering at sim time %.3f s (%s)'
+                           % (self.t, e), self.world_log())
 
     def _msg_class(self, typ):
         import roslib.message
@@ -366,6 +435,8 @@ class Runner(Actions):
                                                 queue_size=1000, buff_size=1 << 24,
                                                 tcp_nodelay=True)
             new.append(topic)
+        if new:
+            self._classify(new)
         if wait_connections and new:
             deadline = time.monotonic() + 10.0
             while time.monotonic() < deadline and any(
@@ -376,6 +447,24 @@ class Runner(Actions):
                 self.say('subscribed %s; unconnected: %s' % (new, [
                     t for t in new if self.subs[t].get_num_connections() == 0]))
         return new
+
+    def _classify(self, topics):
+        """Which new topics the world counts for the handshake, which come from publishers
+        that do not count (waited for with a quiet period)."""
+        import rosgraph
+        try:
+            pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
+        except Exception:  # noqa: BLE001
+            self.uncounted.update(topics)
+            return
+        apps = {n for n, _p in self.app_procs}
+        by_topic = dict((t, set(ns)) for t, ns in pubs)
+        for t in topics:
+            nodes = by_topic.get(t, set())
+            if self.world_node in nodes:
+                self.world_topics.add(t)
+            if nodes - {self.world_node} - apps or self.world_node is None:
+                self.uncounted.add(t)
 
     def _wait_publisher_side(self, topics, deadline):
         """Wait until the world's publishers count this node as a subscriber: a sensor
@@ -421,7 +510,8 @@ class Runner(Actions):
         t = self._stamp_of(msg)
         if self.debug and not hasattr(msg, 'header'):
             self.say('  debug: %s at %.3f' % (topic, t))
-        self.inbox.put(t, topic, msg)
+        hdr = getattr(msg, '_connection_header', None) or {}
+        self.inbox.put(t, topic, msg, from_world=hdr.get('callerid') == self.world_node)
         if self.bag is not None:
             self._bag_write(topic, msg, t)
 
@@ -434,6 +524,57 @@ class Runner(Actions):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
         self.inbox.settle(quiet, longest)
+
+    def _sync(self):
+        """The slice handshake: wait until every message of the slice just run is in.
+        The world's messages exactly (its step answer counts what it handed to this node's
+        connections), the apps' by evidence (appwatch), topics of other publishers by a
+        quiet period. A generous watchdog names what never arrived."""
+        w0 = time.monotonic()
+        if self.published is None and self.world_node is not None:
+            self._step_to(self.t)            # paused: only asks for the counts
+        want = {t: n for t, n in (self.published or {}).items() if t in self.subs}
+        self.published = None
+        missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG)
+        if missing:
+            self._check_world()
+            raise RunError('slice handshake: %.0f s of wall time after the step to sim time '
+                           '%.3f s, messages the world published have not arrived: %s' % (
+                               HANDSHAKE_WATCHDOG, self.t, ', '.join(
+                                   '%s (%d of %d)' % (t, got, n)
+                                   for t, (got, n) in sorted(missing.items()))),
+                           self.world_log())
+        # topics of the world it does not count (outside its counted publishers)
+        self.uncounted.update(t for t in self.world_topics if t not in want and
+                              t in self.subs and self.world_node is not None and
+                              getattr(self, '_counted_once', False))
+        self._counted_once = True
+        if self.uncounted:
+            self.inbox.settle(0.02)
+        if self.appwatch is not None:
+            try:
+                self.appwatch.wait(self.inbox.wake)
+            except AppHung as e:
+                p = dict(self.app_procs).get(e.name)
+                raise RunError(str(e), _tail(p.log_path) if p else [])
+        self.sync_wall += time.monotonic() - w0
+
+    def _own_pending(self):
+        """Why the runner (or the world) still holds app messages not yet delivered, or
+        None: a subscription deserialised more than reached the inbox, or bytes wait on a
+        socket of this process or of the world node."""
+        for topic, sub in list(self.subs.items()):
+            impl = getattr(sub, 'impl', None)
+            n = sum(getattr(c, 'stat_num_msg', 0) for c in list(getattr(impl, 'connections',
+                                                                        ())))
+            if n > self.inbox.counts.get(topic, 0):
+                return 'runner: %s' % topic
+        q = procs.tcp_queues()
+        pids = [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
+        for pid in pids:
+            if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
+                return 'bytes waiting on a socket of pid %d' % pid
+        return None
 
     def _drain(self):
         for t, _s, topic, msg in self.inbox.take():
@@ -509,7 +650,7 @@ class Runner(Actions):
 
     # -- the run ---------------------------------------------------------------------------
     def run(self):
-        wall0 = time.monotonic()
+        wall0 = self.wall0 = time.monotonic()
         self.expectations = [Expectation(e, self.sc.duration) for e in self.sc.expect]
         self.by_topic = {}
         for e in self.expectations:
@@ -581,6 +722,7 @@ class Runner(Actions):
             self._world_settings()
         self._services()
         self._wait_phones(deadline)
+        self._find_watched()
 
     def _run_live(self):
         self._start_world()
@@ -588,11 +730,12 @@ class Runner(Actions):
         if self.record_path:
             self._open_bag()
         self._start_apps()
-        self.t = self.step_srv(0.0).sim_time     # paused now (attach: wherever it was)
+        self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
         self._subscribe_all()
-        self._settle()
+        self._sync()
         self._drain()
+        self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
         self._meta()
         for ev in self.sc.timeline:
             if 'at' in ev:
@@ -602,7 +745,16 @@ class Runner(Actions):
         self.loop_wall = (time.monotonic() - w0, self.t - s0)
 
     def _step_to(self, t_next):
-        return WorldClock(self.step_srv, self._world_stopped).step_to(t_next)
+        return WorldClock(self._step, self._world_stopped).step_to(t_next)
+
+    def _step(self, until):
+        r = self.step_srv(until=until, subscriber=self.rospy.get_name())
+        if not r.success:
+            raise RunError('the world refused the step to sim time %.3f s: %s'
+                           % (until, r.status_message), self.world_log())
+        self.published = {t: c - d for t, c, d in zip(r.topics, r.counts, r.dropped)}
+        self.dropped = {t: d for t, d in zip(r.topics, r.dropped) if d}
+        return r
 
     def _world_stopped(self, e):
         if self.world_proc is not None:      # roslaunch tears down after its node died
@@ -637,14 +789,13 @@ class Runner(Actions):
             # in between only step (sim-time rule: the same slices settle in every run)
             if any('topic' in ev['when'] for ev in self.pending_conditions()) or \
                     self.t - last_settle >= settle_every - 1e-9:
-                self._settle()
+                self._sync()
                 last_settle = self.t
                 self._subscribe_all()      # topics that appeared late (apps, spawned models)
             self._drain()
             self._check_conditions()
-        # the last slice's messages: wait longer (a loaded machine can hold one back for
-        # more than a slice's quiet period; the recording must not end before it)
-        self._settle(quiet=0.25)
+        # the last slice's messages (the handshake: exactly those the world handed over)
+        self._sync()
         self._drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:
@@ -697,6 +848,16 @@ class Runner(Actions):
         if lw and lw[0] > 0:
             self.say('timeline: %.3f s of sim time in %.2f s of wall time (real-time factor '
                      '%.2f)' % (lw[1], lw[0], lw[1] / lw[0]))
+        if getattr(self, 'startup', None) is not None:
+            self.say('start-up: %.2f s from the command to sim time 0' % self.startup)
+        if self.world_node is not None and not self.replay:
+            got = sum(self.inbox.from_world.values())
+            lost = sum(getattr(self, 'dropped', {}).values())
+            self.say('handshake: %d messages from the world, %d dropped by its queues%s; '
+                     '%.2f s of wall time waiting for slices' % (
+                         got, lost, '' if not lost else ' (%s)' % ', '.join(
+                             '%s %d' % kv for kv in sorted(self.dropped.items())),
+                         self.sync_wall))
         for v in result.verdicts:
             self.say(v.line())
         if result.error:

@@ -1,0 +1,118 @@
+"""Has every app answered the slice? Evidence from /proc, not a wall-clock quiet period.
+
+Apps are black boxes in processes of their own. After a slice the world is paused, so an app
+that is done with the slice's messages is idle: none of its threads is running (state R),
+no byte waits on its TCP connections (nothing queued to send, nothing received and not yet
+read), and nothing it sent waits in the runner (the runner's sockets are empty and every
+message its subscriptions deserialised has reached the inbox: ``own_pending``). The runner
+checks that after each slice (``wait``), woken by every message that arrives.
+
+The same readings tell a hung app: a connection of it has had unread bytes at every look
+for ``hang_after`` s of wall time, or every one of its threads is stopped (SIGSTOP). That is an error naming the app (``AppHung``). An app that never falls idle (it
+works by the wall clock, or floods) is waited for at most ``limit`` s per slice; after
+``give_up`` such slices in a row it is no longer waited for, with one warning.
+"""
+import time
+
+from . import procs
+
+__all__ = ['AppWatch', 'AppHung']
+
+
+class AppHung(Exception):
+    """An app stopped reading its topics (or was stopped): ``name``, ``text``."""
+
+    def __init__(self, name, text):
+        Exception.__init__(self, text)
+        self.name = name
+
+
+class AppWatch(object):
+    def __init__(self, apps, own_pending=lambda: None, hang_after=10.0, limit=2.0, give_up=3,
+                 warn=print, clock=time.monotonic):
+        """apps: [(name, Proc)]; own_pending(): a reason string while the runner itself
+        still holds undelivered app messages, else None."""
+        self.apps = list(apps)
+        self.own_pending = own_pending
+        self.hang_after = float(hang_after)
+        self.limit = float(limit)
+        self.give_up = int(give_up)
+        self.warn = warn
+        self.clock = clock
+        self.stuck = {}        # name -> {socket inode or 'stopped': wall time first seen}
+        self.misses = {}       # name -> slices in a row it did not fall idle
+        self.ignored = set()
+        self.waited = 0.0      # wall s spent waiting, for the timeline's figures
+
+    def _busy(self, queues):
+        """[(name, why)] of the apps still working (not those given up on); raises
+        AppHung for any app, given up on or not."""
+        out = []
+        kids = procs._children_map()
+        now = self.clock()
+        for name, p in self.apps:
+            if not p.alive():
+                continue
+            pids = procs.descendants(p.p.pid, kids)
+            states = [s for pid in pids for s in procs.thread_states(pid)]
+            inodes = set()
+            for pid in pids:
+                inodes |= procs.socket_inodes(pid)
+            tx = sum(queues.get(i, (0, 0))[0] for i in inodes)
+            rx = sum(queues.get(i, (0, 0))[1] for i in inodes)
+            stopped = bool(states) and all(s in ('T', 't') for s in states)
+            # a connection it does not read: bytes wait on it at every look
+            seen = self.stuck.setdefault(name, {})
+            for i in [k for k in seen if k != 'stopped']:
+                if i not in inodes or not queues.get(i, (0, 0))[1]:
+                    del seen[i]
+            for i in inodes:
+                if queues.get(i, (0, 0))[1]:
+                    seen.setdefault(i, now)
+            if stopped:
+                seen.setdefault('stopped', now)
+            else:
+                seen.pop('stopped', None)
+            if seen:
+                key = min(seen, key=seen.get)
+                if now - seen[key] >= self.hang_after:
+                    raise AppHung(name, (
+                        'app %s is stopped (every thread in state T) for %.0f s of wall time'
+                        % (name, now - seen[key])) if key == 'stopped' else (
+                        'app %s hangs: it stopped reading its topics (%d bytes wait on its '
+                        'connections, unread for %.0f s of wall time)'
+                        % (name, queues.get(key, (0, rx))[1], now - seen[key])))
+            if name in self.ignored:
+                continue
+            if any(s == 'R' for s in states):
+                out.append((name, 'running'))
+            elif tx or rx:
+                out.append((name, '%d bytes queued' % (tx + rx)))
+            elif stopped:
+                out.append((name, 'stopped'))
+        return out
+
+    def wait(self, wake):
+        """Block until every app is idle and the runner holds nothing of theirs (wake(s):
+        wait up to s for the next message to arrive). Raises AppHung."""
+        if not self.apps:
+            return
+        t0 = self.clock()
+        while True:
+            busy = self._busy(procs.tcp_queues())
+            own = self.own_pending() if not busy else None
+            if not busy and own is None:
+                for name, _p in self.apps:
+                    self.misses.pop(name, None)
+                break
+            if self.clock() - t0 >= self.limit:
+                for name, why in busy:
+                    n = self.misses[name] = self.misses.get(name, 0) + 1
+                    if n >= self.give_up and name not in self.ignored:
+                        self.ignored.add(name)
+                        self.warn('WARNING app %s never falls idle (%s, %d slices in a row): '
+                                  'it is no longer waited for; its outputs are timed by their '
+                                  'arrival' % (name, why, n))
+                break
+            wake(0.002)
+        self.waited += self.clock() - t0

@@ -142,3 +142,30 @@ def test_an_app_flooding_a_recorded_topic(tmp_path):
     assert from_world >= 300 - 2, (from_world, out)
     assert from_app >= 10 * (from_world - 100) - 20, (from_app, from_world, out)
     assert 'handshake: ' in out and ' 0 dropped by its queues' in out, out
+
+
+def test_a_killed_runner_leaves_no_world_behind(tmp_path):
+    """run_scenario itself SIGKILLed (a CI job cancelled, a Ray node removed): its master,
+    world and apps go too (found: a removed Ray node's run left its roslaunch running)."""
+    import signal
+    f = tmp_path / 'long.yaml'
+    f.write_text('name: long\nduration: 600\nreal_time_factor: 1\n'
+                 'world: {args: {camera_rate: 1}}\napps:\n'
+                 '  - {name: fault_app, script: %s, params: {mode: none}}\n' % APP)
+    marker = uuid.uuid4().hex
+    env = dict(os.environ, MDS_FAULT_TEST=marker)
+    env.pop('ROS_MASTER_URI', None)
+    env.setdefault('ROS_HOSTNAME', 'localhost')
+    p = subprocess.Popen([sys.executable, NODE, str(f)], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True, env=env)
+    deadline = time.monotonic() + 120
+    while len(left_behind(marker)) < 4:              # runner, roslaunch, master, world...
+        assert p.poll() is None and time.monotonic() < deadline, p.stdout.read()
+        time.sleep(0.5)
+    time.sleep(3.0)
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    deadline = time.monotonic() + 30
+    while left_behind(marker) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert left_behind(marker) == []

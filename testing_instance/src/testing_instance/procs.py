@@ -17,15 +17,32 @@ def tail(path, n=25):
         return []
 
 
+try:                      # resolved now: the child between fork and exec must not import
+    import ctypes
+    _prctl = ctypes.CDLL(None, use_errno=True).prctl
+except (OSError, AttributeError):  # pragma: no cover - not Linux
+    _prctl = None
+
+
+def _term_with_parent():
+    """In the child before exec: SIGTERM when the runner dies (even by SIGKILL), so a
+    killed runner (a Ray node removed, a CI job cancelled) leaves no world behind;
+    roslaunch takes SIGTERM as a shutdown and stops its nodes."""
+    if _prctl is not None:
+        _prctl(1, int(signal.SIGTERM))                   # PR_SET_PDEATHSIG
+
+
 class Proc(object):
-    """A child process in its own process group, output to a log file."""
+    """A child process in its own process group, output to a log file; it gets SIGTERM
+    when the process that started it dies."""
 
     def __init__(self, cmd, env, log_path, cwd=None):
         self.cmd = cmd
         self.log_path = log_path
         self.log = open(log_path, 'w')
         self.p = subprocess.Popen(cmd, env=env, stdout=self.log, stderr=subprocess.STDOUT,
-                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd)
+                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd,
+                                  preexec_fn=_term_with_parent)
 
     def alive(self):
         return self.p.poll() is None

@@ -852,12 +852,15 @@ class Runner(Actions):
             self.say('start-up: %.2f s from the command to sim time 0' % self.startup)
         if self.world_node is not None and not self.replay:
             got = sum(self.inbox.from_world.values())
-            lost = sum(getattr(self, 'dropped', {}).values())
+            self.dropped = {t: d for t, d in getattr(self, 'dropped', {}).items()
+                            if t in self.subs}       # (rospy's own /clock is not ours)
+            lost = sum(self.dropped.values())
             self.say('handshake: %d messages from the world, %d dropped by its queues%s; '
-                     '%.2f s of wall time waiting for slices' % (
+                     '%.2f s of wall time waiting for slices%s' % (
                          got, lost, '' if not lost else ' (%s)' % ', '.join(
                              '%s %d' % kv for kv in sorted(self.dropped.items())),
-                         self.sync_wall))
+                         self.sync_wall, '' if self.appwatch is None else
+                         ' (%.2f s of it for the apps to answer)' % self.appwatch.waited))
         for v in result.verdicts:
             self.say(v.line())
         if result.error:

@@ -99,6 +99,7 @@ class Actions(object):
         q = motion.quat_from_rpy(*rpy)
         pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
         self._call(ev, srv, self.srv_types['spawn_urdf'], name, xml, namespace, pose, '')
+        self.topics_dirty = True            # its sensors' topics: subscribe at the next slice
 
     def _do_action(self, ev, t0):
         a = ev['action']

@@ -12,11 +12,12 @@ order of t (rospy.Time; ``raw=True``: the serialized bytes instead of msg). A fi
 neither, or is cut short, raises RecordingError with one line naming the file and what is
 wrong.
 """
+import errno
 import io
 import os
 
 __all__ = ['open_writer', 'open_reader', 'RecordingError', 'is_mcap_path', 'MCAP_MAGIC',
-           'BAG_MAGIC', 'McapWriter']
+           'BAG_MAGIC', 'McapWriter', 'GuardedWriter']
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 BAG_MAGIC = b'#ROSBAG V2.0\n'
@@ -68,8 +69,26 @@ def _one_writer(path):
     os.makedirs(d, exist_ok=True)
     if is_mcap_path(path):
         return McapWriter(path)
-    import rosbag
-    return rosbag.Bag(str(path), 'w')
+    return _lean_bag_class()(str(path), 'w')
+
+
+_LEAN = []
+
+
+def _lean_bag_class():
+    """rosbag.Bag for writing only. rosbag keeps an index entry of every message written in
+    memory (~200 bytes each: about 1 GB over an hour of every phone sensor, found by
+    bench/soak), needed only to read an open bag; the file's own index is written chunk by
+    chunk from the current chunk's entries, which it keeps."""
+    if not _LEAN:
+        import rosbag
+
+        class LeanBag(rosbag.Bag):
+            def write(self, topic, msg, t=None, raw=False, connection_header=None):
+                rosbag.Bag.write(self, topic, msg, t, raw, connection_header)
+                self._connection_indexes.clear()
+        _LEAN.append(LeanBag)
+    return _LEAN[0]
 
 
 def open_writer(paths):
@@ -78,6 +97,159 @@ def open_writer(paths):
         paths = [paths]
     writers = [_one_writer(p) for p in paths]
     return writers[0] if len(writers) == 1 else _Multi(writers)
+
+
+class GuardedWriter(object):
+    """The runner's recording: rosbag.Bag's writing API over every ``--record`` path that
+    never raises once open, so that a storage fault costs the recording, not the run.
+
+    - A write that fails (``ENOSPC`` on a full filesystem, ``EIO``...) stops that file; its
+      message and sim time are kept in ``problems``. At ``close()`` a rosbag cut short is
+      reindexed in place (rosbag's own reindex truncates the partial chunk, which frees the
+      room its index needs), so what was written before the fault stays readable.
+    - A file whose folder is removed while it is written (Linux keeps the open file) is
+      written to the end and saved, whole and indexed, to ``salvage_dir`` at ``close()``
+      (default: $SCENARIO_SALVAGE_DIR, else <tmp>/scenario_salvage).
+
+    ``problems`` holds one line per fault, naming the file: the runner ends the run as ERROR
+    with them after its verdicts (exit 2)."""
+
+    CHECK_EVERY = 256        # writes between looks at whether a file was removed
+
+    def __init__(self, paths, salvage_dir=None):
+        self.paths = [str(p) for p in record_paths(paths)]
+        self.salvage_dir = salvage_dir
+        self.writers, self.failed, self.removed = [], {}, {}
+        self.written = [0] * len(self.paths)
+        self.last_t = [None] * len(self.paths)
+        self.problems = []
+        self._n = 0
+        try:
+            for p in self.paths:
+                self.writers.append(_one_writer(p))
+        except OSError as e:
+            for w in self.writers:
+                _close_quietly(w)
+            raise RecordingError('cannot create the recording %s: %s' % (
+                e.filename or p, e.strerror or e))
+
+    def write(self, topic, msg, t=None):
+        self._n += 1
+        for i, w in enumerate(self.writers):
+            if i in self.failed:
+                continue
+            try:
+                w.write(topic, msg, t)
+                self.written[i] += 1
+                self.last_t[i] = t
+            except OSError as e:
+                self.failed[i] = (e, t)
+            if self._n % self.CHECK_EVERY == 0 and i not in self.removed and _unlinked(w):
+                self.removed[i] = t
+
+    def close(self):
+        for i, (path, w) in enumerate(zip(self.paths, self.writers)):
+            keep = None
+            if _unlinked(w):
+                self.removed.setdefault(i, self.last_t[i])
+                keep = _reopen(w)          # the same file, readable after the writer closes
+            try:
+                w.close()
+            except OSError as e:
+                self.failed.setdefault(i, (e, self.last_t[i]))
+                _close_quietly(w)
+            if i in self.failed:
+                self.problems.append(self._after_failure(i, path, keep))
+            elif keep is not None:
+                self.problems.append(self._salvage(i, path, keep))
+            if keep is not None:
+                keep.close()
+        self.writers = []
+        return self.problems
+
+    def _after_failure(self, i, path, keep):
+        e, t = self.failed[i]
+        what = 'the recording %s could not be written at sim time %s: %s' % (
+            path, _sec(t), e.strerror or e)
+        if e.errno == errno.ENOSPC:
+            what += ' (its filesystem is full)'
+        if keep is not None:
+            return what + '; its folder was removed too: nothing was kept'
+        if is_mcap_path(path):
+            return what + '; the MCAP file has no summary: stream readers read it up to there'
+        try:
+            n, end = _reindex_bag(path)
+        except Exception as ex:  # noqa: BLE001 - rosbag raises several kinds
+            return what + '; it could not be reindexed (%s): try `rosbag reindex %s`' % (
+                ex, path)
+        return what + '; %d messages up to sim time %s stay readable (reindexed)' % (
+            n, _sec(end))
+
+    def _salvage(self, i, path, keep):
+        import shutil
+        import tempfile
+        d = self.salvage_dir or os.environ.get('SCENARIO_SALVAGE_DIR') or \
+            os.path.join(tempfile.gettempdir(), 'scenario_salvage')
+        what = 'the folder of the recording %s was removed during the run (noticed at sim ' \
+               'time %s)' % (path, _sec(self.removed[i]))
+        try:
+            os.makedirs(d, exist_ok=True)
+            dest = os.path.join(d, '%d-%s' % (os.getpid(), os.path.basename(path)))
+            keep.seek(0)
+            with open(dest, 'wb') as f:
+                shutil.copyfileobj(keep, f)
+        except OSError as e:
+            return what + '; it could not be saved elsewhere: %s' % (e.strerror or e)
+        return what + '; the whole recording (%d messages) is saved as %s' % (
+            self.written[i], dest)
+
+
+def _sec(t):
+    return '?' if t is None else '%.3f s' % t.to_sec()
+
+
+def _fileobj(w):
+    return getattr(w, '_file', None) or getattr(w, '_f', None)     # rosbag.Bag, McapWriter
+
+
+def _unlinked(w):
+    f = _fileobj(w)
+    try:
+        return f is not None and not f.closed and os.fstat(f.fileno()).st_nlink == 0
+    except (OSError, ValueError):
+        return False
+
+
+def _reopen(w):
+    try:
+        return open('/proc/self/fd/%d' % _fileobj(w).fileno(), 'rb')
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _close_quietly(w):
+    f = _fileobj(w)
+    try:
+        if f is not None:
+            f.close()
+    except OSError:
+        pass
+
+
+def _reindex_bag(path):
+    """Reindex a rosbag cut short (no index, a partial last chunk) in place; returns the
+    number of messages and the end time (rospy.Time) that stay readable."""
+    import rosbag
+    b = rosbag.Bag(path, 'a', allow_unindexed=True)
+    try:
+        for _ in b.reindex():
+            pass
+    finally:
+        b.close()
+    with rosbag.Bag(path) as b:
+        n = b.get_message_count()
+        import rospy
+        return n, rospy.Time.from_sec(b.get_end_time()) if n else None
 
 
 def record_paths(record):

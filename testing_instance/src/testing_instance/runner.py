@@ -47,6 +47,7 @@ MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due
                          # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
 SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
 HANDSHAKE_WATCHDOG = 30.0    # wall s: the world's counted messages must be in by then
+TOPIC_RECHECK = 1.0      # s of sim time: ask the master for new topics at least this often
 
 __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
            'EXIT_ERROR']
@@ -74,6 +75,7 @@ class Runner(Actions):
         self.topic_types = {}
         self.bag = None
         self.bag_lock = threading.Lock()
+        self.storage_problems = []      # lines of the recording's storage faults
         self.event_times = {}
         self.timed_out = False
         self.env_values = {}
@@ -91,6 +93,8 @@ class Runner(Actions):
         self.uncounted = set()     # subscribed topics with publishers that do not count
         self.world_topics = set()  # subscribed topics the world publishes
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
+        self.topics_checked = 0.0  # sim time of the last look at the master's topics
+        self.topics_dirty = False  # a model was spawned since: look again at once
 
     # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
     def start_after(self, event_id, t):
@@ -341,11 +345,12 @@ class Runner(Actions):
         for what, pid in self.watch.items():
             if not procs.alive(pid):
                 raise RunError('%s died at sim time %.3f s (%s, pid %d, is gone)' % (
-                    'the ROS master' if 'master' in what else 'the world', self.t, what, pid),
+                    'the ROS master' if 'master' in what else 'the world', self._fault_t(),
+                    what, pid),
                     self.world_log() + self._ros_log(what))
         if self.world_proc is not None and not self.world_proc.alive():
             raise RunError('the world died at sim time %.3f s (exit code %s)'
-                           % (self.t, self.world_proc.p.returncode), self.world_log())
+                           % (self._fault_t(), self.world_proc.p.returncode), self.world_log())
         for name, p in self.app_procs:
             code = p.p.poll()
             if code is None or name in self.apps_finished:
@@ -355,8 +360,17 @@ class Runner(Actions):
                 self.say('app %s finished at sim time %.3f s (exit code 0)' % (name, self.t))
                 continue
             how = 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
-            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, self.t, how),
+            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, self._fault_t(),
+                                                                        how),
                            _tail(p.log_path))
+
+    def _fault_t(self):
+        """The sim time of a fault: the last /clock this node saw (the world may have
+        stepped past the end of the last completed slice before it died)."""
+        try:
+            return max(self.t, self.rospy.get_rostime().to_sec())
+        except Exception:  # noqa: BLE001 - rospy not initialised (start-up)
+            return self.t
 
     def _ros_log(self, what):
         """The log tail of the ROS log of a watched process (rosmaster: master.log)."""
@@ -389,7 +403,7 @@ class Runner(Actions):
         except (OSError, rosgraph.MasterException) as e:
             self._check_world()
             raise RunError('the ROS master stopped answering at sim time %.3f s (%s)'
-                           % (self.t, e), self.world_log())
+                           % (self._fault_t(), e), self.world_log())
 
     def _msg_class(self, typ):
         import roslib.message
@@ -465,6 +479,17 @@ class Runner(Actions):
                 self.world_topics.add(t)
             if nodes - {self.world_node} - apps or self.world_node is None:
                 self.uncounted.add(t)
+
+    def _topics_stale(self):
+        """Look for new topics now? After a spawn, while a topic that an expectation or a
+        waiting condition reads is not subscribed yet, and every TOPIC_RECHECK s of sim time
+        (a master round trip per slice was the runner's largest cost in a recording run)."""
+        if self.topics_dirty or self.t - self.topics_checked >= TOPIC_RECHECK - 1e-9:
+            return True
+        if any(e.topic not in self.subs and e.verdict is None for e in self.expectations):
+            return True
+        return any(isinstance(ev['when'], dict) and ev['when'].get('topic') not in self.subs
+                   for ev in self.pending_conditions() if 'topic' in ev['when'])
 
     def _wait_publisher_side(self, topics, deadline):
         """Wait until the world's publishers count this node as a subscriber: a sensor
@@ -685,6 +710,8 @@ class Runner(Actions):
             verdicts = [e.finish(self.t) for e in self.expectations]
         else:
             verdicts = [e.verdict for e in self.expectations if e.verdict is not None]
+        if self.storage_problems:           # the verdicts stand; the run is still an ERROR
+            error = '; '.join(([error] if error else []) + self.storage_problems)
         result = Result(self.sc.name, verdicts, error, log, self.t, time.monotonic() - wall0)
         self.report(result)
         if self.collector is not None:
@@ -791,7 +818,9 @@ class Runner(Actions):
                     self.t - last_settle >= settle_every - 1e-9:
                 self._sync()
                 last_settle = self.t
-                self._subscribe_all()      # topics that appeared late (apps, spawned models)
+                if self._topics_stale():   # topics that appeared late (apps, spawned models)
+                    self._subscribe_all()
+                    self.topics_checked, self.topics_dirty = self.t, False
             self._drain()
             self._check_conditions()
         # the last slice's messages (the handshake: exactly those the world handed over)
@@ -806,8 +835,11 @@ class Runner(Actions):
                     e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
 
     def _open_bag(self):
-        from .mcap_io import open_writer      # .bag: rosbag, .mcap: MCAP (ROS 1); a list: all
-        self.bag = open_writer(self.record_path)
+        from .mcap_io import GuardedWriter, RecordingError  # .bag: rosbag, .mcap: MCAP
+        try:                                                  # (ROS 1); a list: all of them
+            self.bag = GuardedWriter(self.record_path)
+        except RecordingError as e:
+            raise RunError(str(e))
 
     def _meta(self):
         if self.bag is None:
@@ -830,8 +862,8 @@ class Runner(Actions):
         for s in self.subs.values():
             s.unregister()
         with self.bag_lock:
-            if self.bag is not None:
-                self.bag.close()
+            if self.bag is not None:     # storage faults: one line each, the run goes on
+                self.storage_problems = self.bag.close()
                 self.bag = None
         for p in reversed(self.procs):
             p.stop()
@@ -870,7 +902,13 @@ class Runner(Actions):
                 for ln in result.log_lines:
                     self.say('  | ' + ln)
         if self.junit:
-            write_junit(result, self.junit)
+            try:
+                write_junit(result, self.junit)
+            except OSError as e:
+                self.say('ERROR cannot write the JUnit file %s: %s' % (self.junit,
+                                                                       e.strerror or e))
+                if result.error is None:
+                    result.error = 'cannot write the JUnit file %s' % self.junit
 
 
 def _probe_field(proto, path):

@@ -102,16 +102,17 @@ def test_unreachable_cluster_is_one_line(tmp_path):
 def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
     c, workers, address = cluster
     local = tmp_path / 'local'
-    p = subprocess.run(sweep_cmd(local, '--jobs', '2'), stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
+    p = subprocess.run(sweep_cmd(local, '--jobs', '2', '--report', tmp_path / 'rl'),
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=600, env=env())
     assert p.returncode == 1, p.stdout
     _, ref = statuses(local)
     assert sorted(ref.values()) == ['FAIL', 'PASS'], ref
 
     both = tmp_path / 'both'
-    p = subprocess.run(sweep_cmd(both, '--cluster', address, '--junit', tmp_path / 'j'),
-                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                       timeout=600, env=env())
+    p = subprocess.run(sweep_cmd(both, '--cluster', address, '--junit', tmp_path / 'j',
+                                 '--report', tmp_path / 'rc'), stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
     assert p.returncode == 1, p.stdout
     s, got = statuses(both)
     assert got == ref, p.stdout
@@ -119,6 +120,16 @@ def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
     assert s['retried'] == [] and s['total'] == 2
     assert sorted(os.listdir(tmp_path / 'j')) == sorted(
         [r['id'] + '.xml' for r in s['runs']] + ['sweep.xml'])            # the local layout
+    # --report: each run's report shipped back from its worker, and the farm index, laid out
+    # as the local farm's
+    layout = sorted(os.listdir(tmp_path / 'rl'))
+    assert layout == sorted([r['id'] for r in s['runs']] + ['index.html']), layout
+    assert sorted(os.listdir(tmp_path / 'rc')) == layout
+    for r in s['runs']:
+        page = (tmp_path / 'rc' / r['id'] / 'index.html').read_text()
+        assert ref[r['name']] in page and 'points_to_true_north' in page
+    index = (tmp_path / 'rc' / 'index.html').read_text()
+    assert all('href="%s/index.html"' % r['id'] in index for r in s['runs']), index
 
     # a node killed mid-sweep: its run is retried on the other node, counted once
     killed = tmp_path / 'killed'

@@ -49,12 +49,20 @@ def junit_cases(path):
 def test_pytest_serial_and_xdist_agree_with_run_scenario(tmp_path):
     # run_scenario --sweep: --shard 0/2 of [0, 5, 10, 20] is 0 and 10
     p = subprocess.run([sys.executable, NODE, DECL, '--sweep', '--shard', '0/2', '--jobs', '2',
-                        '--json', str(tmp_path / 's.json')], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
+                        '--json', str(tmp_path / 's.json'), '--report', str(tmp_path / 'r')],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=600, env=env())
     assert p.returncode == 1, p.stdout
-    ref = {r['name']: r['status'] for r in json.loads((tmp_path / 's.json').read_text())['runs']}
+    runs = json.loads((tmp_path / 's.json').read_text())['runs']
+    ref = {r['name']: r['status'] for r in runs}
     assert ref == {'compass_declination[declination=0]': 'PASS',
                    'compass_declination[declination=10]': 'FAIL'}, p.stdout
+    # --report: a report per run and the farm's index page linking them
+    index = (tmp_path / 'r' / 'index.html').read_text()
+    for r in runs:
+        page = (tmp_path / 'r' / r['id'] / 'index.html').read_text()
+        assert r['status'] in page and 'href="%s/index.html"' % r['id'] in index
+    assert 'report: %s' % (tmp_path / 'r' / 'index.html') in p.stdout
 
     rc, out = pytest_run(DECL, '-k', SUBSET, '--junitxml', tmp_path / 'serial.xml')
     assert rc == 1, out

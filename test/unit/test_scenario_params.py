@@ -276,3 +276,29 @@ def test_sweep_main_refuses_before_anything_starts(tmp_path):
     assert out == ['ERROR the sweep cannot start:', '  %s:9: sweep.heading.range: expands to 20001 '
                    'values, more than the limit of 10000 (raise it with --max-runs N or '
                    'sweep.max_runs)' % path]
+
+
+def test_cluster_without_ray_is_one_line(tmp_path, monkeypatch):
+    """Ray is optional: --cluster where it is not installed is one ERROR line, exit 2."""
+    import sys
+    from testing_instance import cluster
+    monkeypatch.setitem(sys.modules, 'ray', None)        # import ray -> ImportError
+    path = write(tmp_path, 'parameters: {heading: 0, y: 0, temp: 20}\n' + BODY)
+    a = types.SimpleNamespace(sweep=True, set=None, max_runs=None, seed=None, shard=None,
+                              junit=None, record=None, out=None, json=None,
+                              cluster='localhost:6379', jobs=1, rtf=None, cpus_per_run=1,
+                              report=None)
+    out = []
+    assert sweep.main([path], a, out=out.append, remote=cluster.run_cluster) == 2
+    assert out == ['ERROR --cluster needs Ray (pip install "ray==2.40.0"; tools/setup installs '
+                   'it into build/venv)'], out
+
+
+def test_report_folder_per_run_in_the_sweep_layout(tmp_path):
+    lay = sweep.Layout(report=str(tmp_path / 'r'))
+    run = sweep.plan([write(tmp_path, 'parameters: {heading: 0, y: 0, temp: 20}\n' + BODY +
+                            'sweep: {heading: [0, 90]}\n')])[1]
+    assert lay.report_of(run) == str(tmp_path / 'r' / run.id)
+    cmd = sweep.run_command(run, report=lay.report_of(run))
+    assert cmd[cmd.index('--report') + 1] == lay.report_of(run)
+    assert '--report' not in sweep.run_command(run)

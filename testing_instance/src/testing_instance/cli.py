@@ -25,8 +25,8 @@ def _parser(prog):
                    'folder')
     p.add_argument('--junit', metavar='XML', help='write JUnit XML (with --jobs: a folder)')
     p.add_argument('--report', metavar='DIR', help='write an HTML report of the run to '
-                   'DIR/index.html (opens offline; with --jobs: DIR/<scenario>/ and an index '
-                   'page DIR/index.html)')
+                   'DIR/index.html (opens offline; with --jobs, --sweep or --cluster: '
+                   'DIR/<run>/ per run and an index page DIR/index.html)')
     p.add_argument('--real-time-factor', type=float, dest='rtf', metavar='R',
                    help='0 = as fast as possible (override the scenario\'s)')
     p.add_argument('--attach', action='store_true',

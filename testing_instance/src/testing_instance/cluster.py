@@ -92,7 +92,7 @@ def _node_name():
         return socket.gethostname()
 
 
-def _execute(cmd_tail, want_junit, want_bag, ledger, run_id):
+def _execute(cmd_tail, want_junit, want_bag, ledger, run_id, want_report=False):
     """The task body, on a worker: run one scenario, return its outputs."""
     node = _node_name()
     if ledger is not None:
@@ -110,6 +110,9 @@ def _execute(cmd_tail, want_junit, want_bag, ledger, run_id):
             cmd += ['--junit', junit]
         if bag:
             cmd += ['--record', bag]
+        report = os.path.join(tmp, 'report') if want_report else None
+        if report:
+            cmd += ['--report', report]
         t0 = time.monotonic()
         p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                            env=_run_env(), preexec_fn=_die_with_parent)
@@ -119,10 +122,33 @@ def _execute(cmd_tail, want_junit, want_bag, ledger, run_id):
             if path and os.path.exists(path):
                 with open(path, 'rb') as f:
                     out[key] = f.read()
+        if report and os.path.isdir(report):      # the report folder, as a tar archive
+            import io
+            import tarfile
+            buf = io.BytesIO()
+            with tarfile.open(fileobj=buf, mode='w:gz') as tf:
+                tf.add(report, arcname='.')
+            out['report'] = buf.getvalue()
         return out
     finally:
         import shutil
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _unpack_report(data, dest, out):
+    """A run's report folder shipped back from a worker (a tar archive) into ``dest``."""
+    import io
+    import tarfile
+    try:
+        os.makedirs(dest, exist_ok=True)
+        with tarfile.open(fileobj=io.BytesIO(data), mode='r:gz') as tf:
+            for m in tf.getmembers():          # only plain files and folders below dest
+                if not (m.isfile() or m.isdir()) or m.name.startswith('/') or \
+                        '..' in m.name.split('/'):
+                    continue
+                tf.extract(m, dest)
+    except (OSError, tarfile.TarError) as e:
+        out('report: cannot unpack the report of %s: %s' % (dest, e))
 
 
 def _run_env():
@@ -176,7 +202,8 @@ def run_cluster(runs, address, layout, rtf=None, cpus=1.0, out=print):
         pending = {}
         for r in runs:
             tail = run_command(r, rtf=rtf)[1:]
-            ref = task.remote(tail, bool(layout.junit), bool(layout.record), ledger, r.id)
+            ref = task.remote(tail, bool(layout.junit), bool(layout.record), ledger, r.id,
+                              bool(layout.report))
             pending[ref] = (r, time.monotonic())
         results = []
         while pending:
@@ -195,6 +222,8 @@ def run_cluster(runs, address, layout, rtf=None, cpus=1.0, out=print):
                 if o.get('bag') and layout.bag_of(r):
                     with open(layout.bag_of(r), 'wb') as f:
                         f.write(o['bag'])
+                if o.get('report') and layout.report_of(r):
+                    _unpack_report(o['report'], layout.report_of(r), out)
                 try:
                     attempts = len(ray.get(ledger.all.remote(), timeout=30).get(r.id, [])) or 1
                 except Exception:   # noqa: BLE001 - ledger lost with its node: unknown

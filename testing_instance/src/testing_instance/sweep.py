@@ -100,10 +100,12 @@ def plan(files, sweep=True, sets=(), max_runs=None, seed=None):
     return runs
 
 
-def run_command(run, junit=None, record=None, rtf=None, python=None):
+def run_command(run, junit=None, record=None, rtf=None, python=None, report=None):
     cmd = [python or sys.executable, NODE, os.path.abspath(run.path)] + run.args()
     if rtf is not None:
         cmd += ['--real-time-factor', str(rtf)]
+    if report:
+        cmd += ['--report', report]
     if junit:
         cmd += ['--junit', junit]
     if record:
@@ -137,9 +139,10 @@ def result(run, rc, text, wall, node='local', attempts=1):
 class Layout(object):
     """Where a sweep's files go (the same for a local farm and a cluster)."""
 
-    def __init__(self, junit=None, record=None, out=None, json_path=None):
+    def __init__(self, junit=None, record=None, out=None, json_path=None, report=None):
         self.junit, self.record, self.out, self.json = junit, record, out, json_path
-        for d in (junit, record, out):
+        self.report = report
+        for d in (junit, record, out, report):
             if d:
                 os.makedirs(d, exist_ok=True)
 
@@ -148,6 +151,23 @@ class Layout(object):
 
     def bag_of(self, run):
         return os.path.join(self.record, run.id + '.bag') if self.record else None
+
+    def report_of(self, run):
+        """``--report DIR``: DIR/<run>/index.html per run, DIR/index.html for the sweep."""
+        return os.path.join(self.report, run.id) if self.report else None
+
+    def write_index(self, results, wall, out):
+        """The farm index page over the runs' reports (nothing without --report)."""
+        if not self.report:
+            return
+        from .report import write_index
+        runs = [dict(name=r['name'], status=r['status'], wall=r['wall'],
+                     report=self.report_of(r['run'])) for r in results]
+        try:
+            out('report: %s' % write_index(self.report, runs, wall))
+        except OSError as e:
+            out('report: cannot write the farm index to %s: %s' % (self.report,
+                                                                   e.strerror or e))
 
     def log_of(self, run):
         if not self.out:
@@ -163,7 +183,8 @@ def run_local(runs, jobs, layout, rtf=None, out=print):
     while pending or running:
         while pending and len(running) < jobs:
             r = pending.pop(0)
-            p = subprocess.Popen(run_command(r, layout.junit_of(r), layout.bag_of(r), rtf),
+            p = subprocess.Popen(run_command(r, layout.junit_of(r), layout.bag_of(r), rtf,
+                                             report=layout.report_of(r)),
                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                  env=run_env(), text=True)
             running.append((r, p, time.monotonic()))
@@ -326,7 +347,8 @@ def main(files, a, out=print, remote=None):
     if not runs:
         out('ERROR no runs')
         return EXIT_ERROR
-    layout = Layout(a.junit, a.record, getattr(a, 'out', None), getattr(a, 'json', None))
+    layout = Layout(a.junit, a.record, getattr(a, 'out', None), getattr(a, 'json', None),
+                    getattr(a, 'report', None))
     t0 = time.monotonic()
     if a.cluster:
         try:
@@ -343,5 +365,6 @@ def main(files, a, out=print, remote=None):
     out('')
     for ln in write_outputs(summary, layout):
         out(ln)
+    layout.write_index(results, time.monotonic() - t0, out)
     return max([EXIT_PASS] + [r['exit_code'] if r['exit_code'] in (0, 1) else EXIT_ERROR
                               for r in summary['runs']])

@@ -280,21 +280,23 @@ def test_loads_in_both_syntaxes_and_a_bad_parameter_is_one_line(cls, syntax, cap
 
 
 class Bad(object):
-    """A plugin's own bad parameters, ``cases`` [(parameters, words of the error line)], on
-    a one-link model (``robot``: sensor_robot's keywords) at ``at`` in a world
-    (``world``: make_world's keywords) on each of ``engines``; after ``poke(plugin)`` and
-    ``steps`` steps, ``runs(plugin)`` says it works on the parameter's default."""
+    """A plugin's own bad parameters, ``cases`` [(parameters, words of the error line[,
+    False: the plugin cannot work without it and does not load])], on a one-link model
+    (``robot``: sensor_robot's keywords) at ``at`` in a world (``world``: make_world's
+    keywords) on each of ``engines``; after ``poke(plugin)`` and ``steps`` steps,
+    ``runs(plugin)`` says it works on the parameter's default (None: not run)."""
 
-    def __init__(self, lib, cases, steps, runs, poke=None, at=(0, 0, 1), engines=('ode',),
-                 world=None, **robot):
+    def __init__(self, lib, cases, steps=0, runs=None, poke=None, at=(0, 0, 1),
+                 engines=('ode',), world=None, **robot):
         self.lib, self.cases, self.steps, self.runs, self.poke = lib, cases, steps, runs, poke
         self.at, self.engines, self.world, self.robot = at, engines, world or {}, robot
 
     def params(self):
-        for params, words in self.cases:
+        for case in self.cases:
+            params, words, loads = (case + (True,))[:3]
             for engine in self.engines:
                 tag, value = params[1:].split('<')[0].split('>')
-                yield pytest.param(self, params, words, engine, id='%s-%s=%s-%s' % (
+                yield pytest.param(self, params, words, loads, engine, id='%s-%s=%s-%s' % (
                     self.lib[3:-3], tag, value, engine))
 
 
@@ -353,12 +355,20 @@ BAD = [
     ], 30, lambda p: [e[1] for e in p.events] == [DOWN, UP],
         poke=lambda p: p.inject_touch(10, 10, 0.01), link='screen', box=(0.1, 0.05, 0.001),
         visual=True),
+    Bad('libgazebo_ros_imu.so', [
+        ('<bodyName>ghost</bodyName>', 'ghost', False),
+        ('<updateRate>-3</updateRate>', 'updateRate must be a number >= 0'),
+        ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets must be three numbers'),
+        ('<xyzOffsets>0 0 0.1</xyzOffsets>', 'xyzOffsets must be three numbers zero'),
+        ('<accelGaussianNoise>-1</accelGaussianNoise>', 'accelGaussianNoise'),
+    ], engines=worlds.ENGINES, world=dict(seed=None), mass=0.129, box=(0.12, 0.06, 0.01)),
 ]
 
 
-@pytest.mark.parametrize('bad, params, words, engine', [p for b in BAD for p in b.params()])
+@pytest.mark.parametrize('bad, params, words, loads, engine',
+                         [p for b in BAD for p in b.params()])
 def test_a_bad_parameter_is_one_line_and_the_plugin_runs_on_the_default(
-        bad, params, words, engine, caplog):
+        bad, params, words, loads, engine, caplog):
     with worlds.opened(engine, **bad.world) as w:
         caplog.clear()                         # what loading the world said
         with caplog.at_level(logging.ERROR):
@@ -366,6 +376,9 @@ def test_a_bad_parameter_is_one_line_and_the_plugin_runs_on_the_default(
         lines = worlds.error_lines(caplog)
         assert len(lines) == 1, lines
         assert words in lines[0] and bad.lib in lines[0] and 'model r' in lines[0]
+        assert 'r' in w.models and len(w.plugins['r']) == int(loads)
+        if not loads or bad.runs is None:
+            return
         (p,) = w.plugins['r']
         if bad.poke:
             bad.poke(p)

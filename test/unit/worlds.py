@@ -71,10 +71,11 @@ def finger(name='finger', radius=0.005):
 
 def sensor_robot(lib, params='', name='r', syntax='classic', plugin='p', body='', **link):
     """``one_link`` carrying one plugin of library ``lib``; ``body``: its ``<bodyName>``, the
-    first parameter (by default the link in the classic syntax, none in the 2011 one, as in
-    the thesis's files; None: none)."""
+    first parameter (by default the link in the classic syntax unless ``params`` name one,
+    none in the 2011 syntax, as in the thesis's files; None: none)."""
     if body == '':
-        body = link.get('link', 'base') if syntax == 'classic' else None
+        body = link.get('link', 'base') if syntax == 'classic' and '<bodyName>' not in params \
+            else None
     if body is not None:
         params = '<bodyName>%s</bodyName>%s' % (body, params)
     return one_link(plugin_xml(lib, params, syntax, plugin), name, **link)

@@ -303,7 +303,8 @@ class Bad(object):
 OFFICE_ENV = dict(office='environment', seed=2)
 BAD = [
     Bad('libgazebo_ros_ambient.so', [
-        ('<temperatureGaussianNoise>-1</temperatureGaussianNoise>', 'temperatureGaussianNoise must be'),
+        ('<temperatureGaussianNoise>-1</temperatureGaussianNoise>',
+         'temperatureGaussianNoise must be'),
         ('<onChangeOnly>maybe</onChangeOnly>', 'onChangeOnly must be'),
     ], 1500, lambda p: abs(p.last_value[0] - 21) < 1, at=(3, -2, 1), world=OFFICE_ENV),
     Bad('libhector_gazebo_ros_magnetic.so', [

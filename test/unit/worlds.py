@@ -1,8 +1,9 @@
 """Worlds the unit tests share (issue 17, "shared test fixtures"), without ROS:
 
-* ``finger``: a finger tip (a small ball); ``one_link``: a model of one link (gravity off) carrying plugins, and ``plugin_xml``: a
+* ``one_link``: a model of one link (gravity off) carrying plugins, and ``plugin_xml``: a
   plugin element in today's syntax (``<plugin filename=>``) or the thesis's 2011 one
-  (``<controller:... plugin=>``); ``sensor_robot`` puts the two together;
+  (``<controller:... plugin=>``); ``sensor_robot`` puts the two together; ``finger``: a
+  finger tip (a small ball);
 * ``make_world`` / ``opened`` / ``world_fixture``: a World on one engine or on each, bare,
   with the office's environment only, or with the whole office world; with the real phone;
 * ``needs_raycast``: skips a test while world.raycast is not in the tree;
@@ -66,7 +67,8 @@ def finger(name='finger', radius=0.005):
     return parse_urdf('''<robot name="%s"><link name="tip">
       <inertial><mass value="0.01"/><inertia ixx="1e-7" iyy="1e-7" izz="1e-7"/></inertial>
       <collision><geometry><sphere radius="%g"/></geometry></collision></link>
-      <gazebo reference="tip"><turnGravityOff>true</turnGravityOff></gazebo></robot>''' % (name, radius))
+      <gazebo reference="tip"><turnGravityOff>true</turnGravityOff></gazebo></robot>'''
+                      % (name, radius))
 
 
 def sensor_robot(lib, params='', name='r', syntax='classic', plugin='p', body='', **link):

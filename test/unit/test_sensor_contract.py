@@ -8,7 +8,10 @@
   refused with a ValueError naming the plugin and the reason;
 * every sensor and actuator loads in both URDF syntaxes (Gazebo classic ``<plugin>`` and the
   thesis's 2011 ``<controller:...>``), in the robot namespace given, and a bad parameter is
-  one error line naming the plugin, the model and the parameter, while the plugin loads.
+  one error line naming the plugin, the model and the parameter, while the plugin loads;
+* each sensor's own bad parameters (``BAD``): one such line each, and the plugin works on
+  the default, or does not load where it cannot work without the parameter (the sensor's
+  own test file keeps what is particular to the sensor).
 
 The fault runs: the office world and the phone just outside the office door (outdoors: a
 GPS fix, the heart-rate belt in range), seeded; at T_FAULT every sensor gets the fault; a

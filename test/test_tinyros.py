@@ -232,28 +232,28 @@ def _check_identical(echo_lines, pub_lines, shape, min_frames):
         assert crc == crcs[i], 'frame %d: received crc %s, published %s' % (i, crc, crcs[i])
 
 
-def test_rospy_frames_byte_identical(master):
-    pub = _rospy_pub(master, '/tr_rospy', '--width', '160', '--height', '120', '--rate', '30')
+def _echo_20_frames_byte_identical(master, pub, topic, shape):
+    """tinyros echoes 20 frames of ``topic``, each byte-identical to one ``pub`` (stopped
+    after) published."""
     try:
-        echo = Proc([ECHO, '/tr_rospy', '-v', '-q', '-n', '20', '-t', '30'], master)
+        echo = Proc([ECHO, topic, '-v', '-q', '-n', '20', '-t', '30'], master)
         rc = echo.wait(40)
     finally:
         pub.stop()
     assert rc == 0, echo.err
-    _check_identical(echo.lines, pub.lines, (160, 120, 'rgb8'), 20)
+    _check_identical(echo.lines, pub.lines, shape, 20)
+
+
+def test_rospy_frames_byte_identical(master):
+    pub = _rospy_pub(master, '/tr_rospy', '--width', '160', '--height', '120', '--rate', '30')
+    _echo_20_frames_byte_identical(master, pub, '/tr_rospy', (160, 120, 'rgb8'))
 
 
 def test_roscpp_frames_byte_identical(master):
     if not os.path.isfile(PEER):
         pytest.fail('tinyros_roscpp_peer is not built although libroscpp-dev is a dependency')
     pub = Proc([PEER, 'pub', '/tr_roscpp', '--width', '640', '--height', '480', '--rate', '30'], master)
-    try:
-        echo = Proc([ECHO, '/tr_roscpp', '-v', '-q', '-n', '20', '-t', '30'], master)
-        rc = echo.wait(40)
-    finally:
-        pub.stop()
-    assert rc == 0, echo.err
-    _check_identical(echo.lines, pub.lines, (640, 480, 'rgb8'), 20)
+    _echo_20_frames_byte_identical(master, pub, '/tr_roscpp', (640, 480, 'rgb8'))
 
 
 def test_echo_line_and_camera_shim(master, tmp_path):

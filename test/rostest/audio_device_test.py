@@ -13,8 +13,7 @@ import rostest
 import soundfile
 
 from mobile_device_sim.msg import AudioData
-from mobile_device_sim.srv import GetModelState
-from common import sim_sleep as wait_sim, wait_models  # noqa: E402
+from common import sim_sleep as wait_sim, start, wait_connected  # noqa: E402
 
 A, B = 'mobile_device', 'mobile_device_b'
 SR = 16000
@@ -34,10 +33,7 @@ def tone(freq, seconds, amp=0.5):
 class AudioDevice(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('audio_device_test')
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        wait_models(get, [B])
+        start('audio_device_test', [B])
         deadline = time.time() + 60
         while time.time() < deadline and not rospy.has_param('/audio_device/server'):
             time.sleep(0.1)
@@ -46,10 +42,8 @@ class AudioDevice(unittest.TestCase):
         cls.sub = rospy.Subscriber('/%s/microphone/audio' % B, AudioData, cls.chunks.append,
                                    queue_size=1000)
         cls.spk = rospy.Publisher('/%s/speaker/audio' % A, AudioData, queue_size=10)
-        deadline = time.time() + 60
-        while time.time() < deadline and (cls.spk.get_num_connections() < 2
-                                          or cls.sub.get_num_connections() == 0):
-            time.sleep(0.1)   # the world and audio_device both listen to A's speaker
+        # the world and audio_device both listen to A's speaker
+        wait_connected(cls.spk, cls.sub, 2)
         cls.tmp = tempfile.mkdtemp(prefix='audio_device_test_')
 
     def test_parecord_hears_phone_a_through_phone_b(self):

@@ -1,6 +1,5 @@
 #!/usr/bin/env python3
 """rostest: a tone on phone A's speaker heard by phone B's microphone (audio.test)."""
-import time
 import unittest
 
 import numpy as np
@@ -9,8 +8,7 @@ import rostest
 from geometry_msgs.msg import Pose, Twist
 
 from mobile_device_sim.msg import AudioData, ModelState
-from mobile_device_sim.srv import GetModelState, SetModelState
-from common import sim_sleep as wait_sim, wait_models  # noqa: E402
+from common import sim_sleep as wait_sim, start, wait_connected  # noqa: E402
 
 A, B = 'mobile_device', 'mobile_device_b'
 FREQ = 1000.0
@@ -20,19 +18,12 @@ SR = 16000
 class Audio(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('audio_test')
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        cls.get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        cls.set = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
-        wait_models(cls.get, [B])
+        cls.get, cls.set = start('audio_test', [B])
         cls.chunks = []
         cls.sub = rospy.Subscriber('/%s/microphone/audio' % B, AudioData, cls.chunks.append,
                                    queue_size=1000)
         cls.spk = rospy.Publisher('/%s/speaker/audio' % A, AudioData, queue_size=10)
-        deadline = time.time() + 60
-        while time.time() < deadline and (cls.spk.get_num_connections() == 0
-                                          or cls.sub.get_num_connections() == 0):
-            time.sleep(0.1)
+        wait_connected(cls.spk, cls.sub)
 
     def link_point(self, model, offset):
         """World position of a point fixed in the model's base link."""

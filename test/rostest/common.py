@@ -1,15 +1,18 @@
 """What the rostest scripts share (issue 17): sim time, a recorder, model helpers.
 
 The scripts run as executables under rostest, so this folder is on their sys.path:
-``from common import sim_sleep, Recorder, wait_models``. Call after ``rospy.init_node``.
+``from common import start, sim_sleep, Recorder``. ``start`` calls ``rospy.init_node`` and
+waits for the world; the rest is for after it.
 """
+import subprocess
 import threading
 import time
 
 import rospy
 from rosgraph_msgs.msg import Clock
 
-__all__ = ['SimClock', 'sim_now', 'sim_sleep', 'Recorder', 'wait_models', 'model_state_msg']
+__all__ = ['start', 'SimClock', 'sim_now', 'sim_sleep', 'Recorder', 'wait_models',
+           'model_state_msg', 'wait_connected', 'rosservice', 'rated_topics']
 
 _lock = threading.Lock()
 _clock = []
@@ -80,6 +83,49 @@ def wait_models(get_model_state, names, timeout=90.0):
             return
         time.sleep(0.2)
     raise AssertionError('models %s were not spawned within %g s' % (', '.join(names), timeout))
+
+
+def start(node, models=('mobile_device',), timeout=90.0):
+    """``rospy.init_node(node)``, then wait for the world's model services, until every
+    model in ``models`` is spawned and for sim time (so a ``Recorder`` made next stamps every
+    message). Returns the (get_model_state, set_model_state) proxies."""
+    from mobile_device_sim.srv import GetModelState, SetModelState
+    rospy.init_node(node)
+    rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
+    get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
+    wait_models(get, models, timeout)
+    sim_now()
+    return get, rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
+
+
+def wait_connected(pub, sub, subscribers=1, timeout=60.0):
+    """Wait (at most ``timeout`` s of wall time, then go on) until ``pub`` has
+    ``subscribers`` subscribers and ``sub`` a publisher."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and (pub.get_num_connections() < subscribers
+                                      or sub.get_num_connections() == 0):
+        time.sleep(0.1)
+
+
+def rosservice(*args):
+    """``rosservice call ARGS`` as a user types it: what it printed."""
+    out = subprocess.run(['rosservice', 'call'] + list(args), stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True, timeout=60)
+    return out.stdout
+
+
+def rated_topics(test, ns, topics):
+    """Asserts (``test``: a TestCase) that every topic ``ns + name`` of ``topics`` ({name:
+    (documented type, class, rate in Hz or None)}) has its documented type on the master;
+    the (name, rate) of those with a rate, sorted."""
+    import rosgraph
+    types = dict(rosgraph.Master('/test').getTopicTypes())
+    rated = []
+    for topic, (typ, _, rate) in sorted(topics.items()):
+        test.assertEqual(types.get(ns + topic), typ, topic)
+        if rate is not None:
+            rated.append((topic, rate))
+    return rated
 
 
 def model_state_msg(model, xyz, rpy=(0.0, 0.0, 0.0), frame='world'):

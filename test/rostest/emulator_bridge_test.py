@@ -13,14 +13,11 @@ import unittest
 
 import rospy
 import rostest
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState
 
-from mobile_device_sim.msg import ModelState
-from mobile_device_sim.srv import GetModelState, SetModelState
+from common import model_state_msg, sim_sleep, start  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))  # test/fixtures
 from fixtures.emulator_console_testserver import ConsoleTestServer  # noqa: E402
-from sim_world.transforms import quat_from_rpy
 
 
 def values(cmd):
@@ -30,18 +27,10 @@ def values(cmd):
 class EmulatorBridge(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('emulator_bridge_test')
-        cls.clock = [0.0]
-        rospy.Subscriber('/clock', Clock, cls.on_clock, queue_size=10)
         cls.battery = []
+        _, cls.set_state = start('emulator_bridge_test', timeout=60)
         rospy.Subscriber('/mobile_device/battery_state', BatteryState, cls.battery.append,
                          queue_size=10)
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 60
-        while time.time() < deadline and not get('mobile_device', 'world').success:
-            time.sleep(0.2)
-        cls.set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
         cls.tmp = tempfile.mkdtemp(prefix='emulator_bridge_test')
         cls.token_file = os.path.join(cls.tmp, 'emulator_console_auth_token')
         with open(cls.token_file, 'w') as f:
@@ -67,26 +56,8 @@ class EmulatorBridge(unittest.TestCase):
         cls.log.close()
         shutil.rmtree(cls.tmp, ignore_errors=True)
 
-    @classmethod
-    def on_clock(cls, m):
-        cls.clock[0] = m.clock.to_sec()
-
-    def sim_sleep(self, seconds):
-        start = self.clock[0]
-        deadline = time.time() + 150
-        while time.time() < deadline:
-            if self.clock[0] - start >= seconds:
-                return
-            time.sleep(0.005)
-        raise AssertionError('sim time did not advance')
-
     def teleport(self, x, y, z, rpy=(0, 0, 0)):
-        st = ModelState(model_name='mobile_device', reference_frame='world')
-        st.pose.position.x, st.pose.position.y, st.pose.position.z = x, y, z
-        q = quat_from_rpy(*rpy)
-        (st.pose.orientation.x, st.pose.orientation.y, st.pose.orientation.z,
-         st.pose.orientation.w) = q
-        self.assertTrue(self.set_state(st).success)
+        self.assertTrue(self.set_state(model_state_msg('mobile_device', (x, y, z), rpy)).success)
 
     def recent(self, prefix, since, count=10):
         deadline = time.time() + 60
@@ -105,7 +76,7 @@ class EmulatorBridge(unittest.TestCase):
 
     def mean_after_pose(self, rpy):
         self.teleport(3.288, -2.11, 1.0, rpy)
-        self.sim_sleep(0.5)
+        sim_sleep(0.5)
         n0 = len(self.server.commands('sensor set acceleration'))
         got = self.recent('sensor set acceleration', n0, 10)
         vals = [values(c) for c in got]
@@ -161,7 +132,7 @@ class EmulatorBridge(unittest.TestCase):
         x = 3.3
         while x <= 9.0 + 1e-9:
             self.teleport(x, -3.0, 1.0)
-            self.sim_sleep(0.25)
+            sim_sleep(0.25)
             x += 0.25
         got = self.recent('geo fix', 0, 1)
         words = got[0].split()

@@ -5,13 +5,11 @@ import subprocess
 import unittest
 
 import numpy as np
-import rospy
 import rostest
 from sensor_msgs.msg import Imu, Temperature
 from std_msgs.msg import ColorRGBA
 
-from mobile_device_sim.srv import GetModelState
-from common import Recorder, sim_now, sim_sleep, wait_models  # noqa: E402
+from common import Recorder, sim_now, sim_sleep, start  # noqa: E402
 
 NS = '/mobile_device/'
 
@@ -25,10 +23,7 @@ def pub(topic, typ, yaml):
 class Outputs(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('outputs_test')
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        wait_models(get, ['mobile_device'], timeout=60)
+        start('outputs_test', timeout=60)
         cls.imu = Recorder(NS + 'imu_sensor_data', Imu)
         cls.led = Recorder(NS + 'led/state', ColorRGBA)
         cls.thermal = Recorder(NS + 'thermal_display/state', Temperature)

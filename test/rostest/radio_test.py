@@ -10,10 +10,9 @@ import rospy
 import rostest
 from std_msgs.msg import Bool, Float64, String
 
-from mobile_device_sim.msg import (CellSignal, ModelState, NfcIncoming, NfcNotification,
-                                   NfcOutgoing, WifiLink, WifiScan)
-from mobile_device_sim.srv import GetModelState, SetModelState
-from common import Recorder, model_state_msg, sim_sleep, wait_models  # noqa: E402
+from mobile_device_sim.msg import (CellSignal, NfcIncoming, NfcNotification, NfcOutgoing,
+                                   WifiLink, WifiScan)
+from common import Recorder, model_state_msg, sim_sleep, start  # noqa: E402
 
 A, B, C = 'mobile_device', 'mobile_device_b', 'mobile_device_c'
 AP_OFFICE, AP_WEST = '00:1a:2b:3c:4d:01', '00:1a:2b:3c:4d:02'
@@ -24,11 +23,7 @@ VCARD = ('BEGIN:VCARD\nVERSION:2.1\nN:Mustermann;Max\nFN:Max Mustermann\n'
 class Radio(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('radio_test')
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        cls.get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        cls.set = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
-        wait_models(cls.get, [A, B, C])
+        cls.get, cls.set = start('radio_test', [A, B, C])
         cls.rec = {}
         for ns in (A, B, C):
             cls.rec[ns] = dict(

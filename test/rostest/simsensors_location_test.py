@@ -3,21 +3,19 @@
 real roscore (simsensors_location.test)."""
 import math
 import os
-import subprocess
-import time
 import unittest
 
-import rosgraph
 import rospy
 import rostest
 from geometry_msgs.msg import Vector3Stamped
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import (FluidPressure, MagneticField, NavSatFix, NavSatStatus,
                              RelativeHumidity, Temperature, TimeReference)
 from std_msgs.msg import Float64, String
 
-from mobile_device_sim.msg import EnvironmentValue, ModelState
-from mobile_device_sim.srv import GetModelState, SetEnvironment, SetModelState
+from mobile_device_sim.msg import EnvironmentValue
+from mobile_device_sim.srv import SetEnvironment
+from common import (Recorder, model_state_msg, rated_topics, rosservice, sim_now,  # noqa: E402
+                    sim_sleep, start)
 
 NS = '/mobile_device/'
 # topic -> (documented type, class, rate in Hz of sim time; None: not checked here)
@@ -35,53 +33,16 @@ TOPICS = {
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-class Recorder(object):
-    """Messages with the sim time they arrived at (for topics without a header)."""
-
-    def __init__(self, topic, cls, clock):
-        self.msgs, self.times, self.clock = [], [], clock
-        self.sub = rospy.Subscriber(topic, cls, self.cb, queue_size=1000)
-
-    def cb(self, m):
-        self.msgs.append(m)
-        self.times.append(self.clock[0])
-
-
 class LocationSensors(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('simsensors_location_test')
-        cls.clock = [0.0]
-        rospy.Subscriber('/clock', Clock, cls.on_clock, queue_size=10)
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        deadline = time.time() + 60
-        while time.time() < deadline and not get('mobile_device', 'world').success:
-            time.sleep(0.2)
-        cls.rec = dict((t, Recorder(NS + t, c, cls.clock)) for t, (_, c, _) in TOPICS.items())
-        cls.sim_sleep(6.0)
+        _, cls.set_state = start('simsensors_location_test', timeout=60)
+        cls.rec = dict((t, Recorder(NS + t, c)) for t, (_, c, _) in TOPICS.items())
+        sim_sleep(6.0)
         cls.window = dict((t, (list(r.msgs), list(r.times))) for t, r in cls.rec.items())
 
-    @classmethod
-    def on_clock(cls, m):
-        cls.clock[0] = m.clock.to_sec()
-
-    @classmethod
-    def sim_sleep(cls, seconds):
-        start = cls.clock[0]
-        deadline = time.time() + 150
-        while time.time() < deadline:
-            if cls.clock[0] - start >= seconds:
-                return
-            time.sleep(0.005)
-        raise AssertionError('sim time did not advance')
-
     def test_1_types_and_rates(self):
-        types = dict(rosgraph.Master('/test').getTopicTypes())
-        for topic, (typ, _, rate) in sorted(TOPICS.items()):
-            self.assertEqual(types.get(NS + topic), typ, topic)
-            if rate is None:
-                continue
+        for topic, rate in rated_topics(self, NS, TOPICS):
             msgs, times = self.window[topic]
             if msgs and hasattr(msgs[0], 'header'):
                 stamps = [m.header.stamp.to_sec() for m in msgs]
@@ -112,29 +73,25 @@ class LocationSensors(unittest.TestCase):
     def test_3_walk_out_of_the_door_gets_a_fix_after_ttff(self):
         from sim_world.sdf import load_world_file
         env = load_world_file(os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')).environment
-        set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState)
         n0 = len(self.rec['fix'].msgs)
         t_visible = None
         x = 3.3
         while x <= 9.0 + 1e-9:
             p = (x, -3.0, 1.0)
-            st = ModelState(model_name='mobile_device', reference_frame='world')
-            st.pose.position.x, st.pose.position.y, st.pose.position.z = p
-            st.pose.orientation.w = 1.0
-            before = self.clock[0]
-            self.assertTrue(set_state(st).success)
+            before = sim_now()
+            self.assertTrue(self.set_state(model_state_msg('mobile_device', p)).success)
             inside, _, margin = env.indoor(p)
             if t_visible is None and (not inside or margin):
-                t_visible = (before, self.clock[0] + 0.01)
-            self.sim_sleep(0.25)
+                t_visible = (before, sim_now() + 0.01)
+            sim_sleep(0.25)
             x += 0.25
         self.assertIsNotNone(t_visible)
-        deadline = self.clock[0] + 15
-        while self.clock[0] < deadline:
+        deadline = sim_now() + 15
+        while sim_now() < deadline:
             got = [f for f in self.rec['fix'].msgs[n0:] if f.status.status >= 0]
             if got:
                 break
-            self.sim_sleep(0.2)
+            sim_sleep(0.2)
         got = [f for f in self.rec['fix'].msgs[n0:] if f.status.status >= 0]
         self.assertTrue(got, 'no fix outdoors')
         t_fix = got[0].header.stamp.to_sec()
@@ -143,22 +100,17 @@ class LocationSensors(unittest.TestCase):
         self.assertLessEqual(t_fix, t_visible[1] + 6.0 + 0.01)
         self.assertAlmostEqual(got[0].latitude, 48.1489, delta=0.001)
         self.assertAlmostEqual(got[0].longitude, 11.5667, delta=0.001)
-        self.sim_sleep(2.5)
+        sim_sleep(2.5)
         self.assertTrue(any(v.header.stamp.to_sec() >= t_fix for v in self.rec['fix_velocity'].msgs))
         self.assertTrue(any(m.data.startswith('$GPRMC') and ',A,' in m.data
                             for m in self.rec['nmea_sentence'].msgs[-4:]))
 
-    def rosservice(self, *args):
-        out = subprocess.run(['rosservice', 'call'] + list(args), stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True, timeout=60)
-        return out.stdout
-
     def test_4_set_device_time(self):
-        before = self.clock[0]
-        out = self.rosservice(NS + 'set_device_time', '{device_time: {secs: 1700000000, nsecs: 0}}')
+        before = sim_now()
+        out = rosservice(NS + 'set_device_time', '{device_time: {secs: 1700000000, nsecs: 0}}')
         self.assertIn('success: True', out)
-        after = self.clock[0]
-        self.sim_sleep(2.5)
+        after = sim_now()
+        sim_sleep(2.5)
         tr = self.rec['time_reference'].msgs[-1]
         # set somewhere between before and after (rosservice takes a while to start)
         ran = tr.time_ref.to_sec() - 1700000000
@@ -170,7 +122,7 @@ class LocationSensors(unittest.TestCase):
         res = srv([EnvironmentValue('indoor_temperature', 30.0), EnvironmentValue('temperature', 30.0),
                    EnvironmentValue('humidity', 70.0)])
         self.assertTrue(res.success, res.status_message)
-        self.sim_sleep(2.5)
+        sim_sleep(2.5)
         self.assertAlmostEqual(self.rec['temperature'].msgs[-1].temperature, 30.0, delta=0.5)
         self.assertAlmostEqual(self.rec['humidity'].msgs[-1].relative_humidity, 0.70, delta=0.02)
 

@@ -1,10 +1,8 @@
 #!/usr/bin/env python3
 """rostest: the phone's proximity, ambient light, touch/buttons and battery topics with a
 real roscore (simsensors_phone.test)."""
-import subprocess
 import unittest
 
-import rosgraph
 import rospy
 import rostest
 from geometry_msgs.msg import Pose as PoseMsg
@@ -12,8 +10,8 @@ from sensor_msgs.msg import BatteryState, Illuminance, Range
 from std_msgs.msg import Bool, ColorRGBA
 
 from mobile_device_sim.msg import ButtonEvent, ContactsState, PowerState, TouchEvent
-from mobile_device_sim.srv import DeleteModel, GetModelState, SpawnModel
-from common import Recorder, sim_sleep, wait_models  # noqa: E402
+from mobile_device_sim.srv import DeleteModel, SpawnModel
+from common import Recorder, rated_topics, rosservice, sim_sleep, start  # noqa: E402
 
 NS = '/mobile_device/'
 # topic -> (documented type, class, rate in Hz of sim time or None for event topics)
@@ -35,20 +33,13 @@ HAND = '''<robot name="hand"><link name="palm">
 class PhoneSensors(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('simsensors_phone_test')
-        rospy.wait_for_service('/gazebo/get_model_state', timeout=60)
-        get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
-        wait_models(get, ['mobile_device'], timeout=60)
+        start('simsensors_phone_test', timeout=60)
         cls.rec = dict((t, Recorder(NS + t, c)) for t, (_, c, _) in TOPICS.items())
         rospy.wait_for_service(NS + 'inject_touch', timeout=30)
         sim_sleep(3.0)
 
     def test_types_and_rates(self):
-        types = dict(rosgraph.Master('/test').getTopicTypes())
-        for topic, (typ, _, rate) in sorted(TOPICS.items()):
-            self.assertEqual(types.get(NS + topic), typ, topic)
-            if rate is None:
-                continue
+        for topic, rate in rated_topics(self, NS, TOPICS):
             msgs = [m for m in self.rec[topic].msgs if hasattr(m, 'header')]
             stamps = [m.header.stamp.to_sec() for m in msgs]
             self.assertGreater(len(stamps), 3, topic)
@@ -70,18 +61,13 @@ class PhoneSensors(unittest.TestCase):
         self.assertLess(bs.current, 0)
         self.assertEqual(bs.power_supply_status, BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
 
-    def rosservice(self, *args):
-        out = subprocess.run(['rosservice', 'call'] + list(args), stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True, timeout=60)
-        return out.stdout
-
     def test_inject_touch_and_press_button_via_rosservice(self):
         n = len(self.rec['touch'].msgs)
-        out = self.rosservice(NS + 'inject_touch',
+        out = rosservice(NS + 'inject_touch',
                               '{x: 150, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
         self.assertIn('success: True', out)
         nb = len(self.rec['buttons'].msgs)
-        out = self.rosservice(NS + 'press_button', '{button: power, duration: 0.1}')
+        out = rosservice(NS + 'press_button', '{button: power, duration: 0.1}')
         self.assertIn('success: True', out)
         sim_sleep(1.0)
         ev = self.rec['touch'].msgs[n:]
@@ -96,11 +82,11 @@ class PhoneSensors(unittest.TestCase):
         self.assertEqual([(b.button, b.state) for b in be],
                          [('power', ButtonEvent.PRESSED), ('power', ButtonEvent.RELEASED)])
         # bad input: refused with a reason, nothing happens
-        out = self.rosservice(NS + 'inject_touch',
+        out = rosservice(NS + 'inject_touch',
                               '{x: -5, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
         self.assertIn('success: False', out)
         self.assertIn('outside the display', out)
-        out = self.rosservice(NS + 'press_button', '{button: home, duration: 0.1}')
+        out = rosservice(NS + 'press_button', '{button: home, duration: 0.1}')
         self.assertIn('success: False', out)
 
     def test_charger(self):

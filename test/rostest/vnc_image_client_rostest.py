@@ -51,6 +51,13 @@ class Collector(object):
         with self.lock:
             return self.msgs[-1] if self.msgs else None
 
+    def first(self, timeout=20.0):
+        """Wait up to ``timeout`` s for a message: the latest one, None without any."""
+        deadline = time.monotonic() + timeout
+        while self.latest() is None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        return self.latest()
+
     def all(self):
         with self.lock:
             return list(self.msgs)
@@ -209,10 +216,7 @@ class VncNodeTest(unittest.TestCase):
                                  stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                  stderr=subprocess.STDOUT)
             try:
-                deadline = time.monotonic() + 20
-                while images.latest() is None and time.monotonic() < deadline:
-                    time.sleep(0.1)
-                self.assertIsNotNone(images.latest(), 'no image with ~password_file')
+                self.assertIsNotNone(images.first(20), 'no image with ~password_file')
             finally:
                 p.send_signal(signal.SIGINT)
                 try:
@@ -231,10 +235,7 @@ class VncNodeTest(unittest.TestCase):
                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                              stderr=subprocess.DEVNULL)
         try:
-            deadline = time.monotonic() + 20
-            while images.latest() is None and time.monotonic() < deadline:
-                time.sleep(0.1)
-            self.assertIsNotNone(images.latest())
+            self.assertIsNotNone(images.first(20))
             n0 = len(images.all())
             t0 = time.monotonic()
             i = 0

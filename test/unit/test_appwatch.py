@@ -1,5 +1,6 @@
 """The runner's evidence that apps answered a slice (testing_instance.appwatch), on real
 processes: idle, busy, stopped, and one that does not read its connection."""
+import contextlib
 import signal
 import socket
 import subprocess
@@ -74,36 +75,34 @@ def test_a_stopped_app_is_hung(spawn):
         w.wait(sleeper)
 
 
-def test_an_app_that_stops_reading_its_connection_is_hung(spawn):
+@contextlib.contextmanager
+def sent_5000_bytes(spawn, code):
+    """The app ``code`` connects to a local port (``%d`` in it), which sends it 5000 bytes."""
     srv = socket.socket()
     srv.bind(('127.0.0.1', 0))
     srv.listen(1)
-    p = spawn('import socket, time; s = socket.create_connection(("127.0.0.1", %d)); '
-              'time.sleep(60)' % srv.getsockname()[1])
+    p = spawn(code % srv.getsockname()[1])
     conn, _ = srv.accept()
-    conn.sendall(b'x' * 5000)             # never read
-    w = AppWatch([('/deaf', p)], hang_after=0.4, limit=5.0)
+    conn.sendall(b'x' * 5000)
     try:
+        yield p
+    finally:
+        conn.close()
+        srv.close()
+
+
+def test_an_app_that_stops_reading_its_connection_is_hung(spawn):
+    with sent_5000_bytes(spawn, 'import socket, time; s = socket.create_connection('
+                                '("127.0.0.1", %d)); time.sleep(60)') as p:    # never read
+        w = AppWatch([('/deaf', p)], hang_after=0.4, limit=5.0)
         with pytest.raises(AppHung, match=r'app /deaf hangs: it stopped reading its topics '
                                           r'\(5000 bytes wait'):
             w.wait(sleeper)
-    finally:
-        conn.close()
-        srv.close()
 
 
 def test_an_app_that_reads_is_not_hung(spawn):
-    srv = socket.socket()
-    srv.bind(('127.0.0.1', 0))
-    srv.listen(1)
-    p = spawn('import socket\ns = socket.create_connection(("127.0.0.1", %d))\n'
-              'while s.recv(65536): pass' % srv.getsockname()[1])
-    conn, _ = srv.accept()
-    conn.sendall(b'x' * 5000)
-    w = AppWatch([('/reader', p)], hang_after=0.4, limit=5.0)
-    try:
+    with sent_5000_bytes(spawn, 'import socket\ns = socket.create_connection(("127.0.0.1", %d))\n'
+                                'while s.recv(65536): pass') as p:
+        w = AppWatch([('/reader', p)], hang_after=0.4, limit=5.0)
         w.wait(sleeper)                   # read at once: idle, no hang
         assert not w.misses
-    finally:
-        conn.close()
-        srv.close()

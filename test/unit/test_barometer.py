@@ -1,48 +1,26 @@
 """The barometer (thesis 3.3.5, 3.3.11) on the real World, both engines, without ROS:
 about -11 Pa per metre at the office's 519 m, the weather's offset at run time, the
 thesis's step noise capped by its maximum, Gaussian noise, altitude, both URDF syntaxes,
-bad parameters, same seed same data."""
-import logging
-import os
-
+same seed same data (bad parameters: test_sensor_contract.py)."""
 import numpy as np
 import pytest
 
-from sim_world.sdf import load_world_file
 from sim_world.transforms import Pose
-from sim_world.urdf import parse_urdf
-from sim_world.world import World
 
 from simsensors.barometer import Barometer, altitude_from_pressure
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+import worlds
+
 EXACT = '<gaussianNoise>0</gaussianNoise>'
+world = worlds.world_fixture(seed=2, office='environment')
 
 
-def make_world(engine, seed=2):
-    w = World(physics=engine, seed=seed)
-    w.environment = load_world_file(OFFICE).environment
-    return w
-
-
-def robot(params=EXACT, name='r', fn='libgazebo_ros_air_pressure.so'):
-    return parse_urdf('''<robot name="%s"><link name="base">
-      <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-      <gazebo><plugin name="baro" filename="%s">
-        <bodyName>base</bodyName>%s</plugin></gazebo></robot>''' % (name, fn, params))
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = make_world(request.param)
-    yield w
-    w.shutdown()
+def robot(params=EXACT, name='r', fn='libgazebo_ros_air_pressure.so', syntax='classic'):
+    return worlds.sensor_robot(fn, params, name, syntax, plugin='baro')
 
 
 def baro(world, name='r'):
-    return [p for p in world.plugins[name] if isinstance(p, Barometer)][0]
+    return worlds.plugin_of(world, Barometer, name)
 
 
 def test_pressure_falls_11_pa_per_metre(world):
@@ -101,53 +79,20 @@ def test_altitude_inverse():
 
 
 def test_hector_name_and_2011_syntax():
-    w = make_world('ode')
-    try:
+    with worlds.opened('ode', 2, office='environment') as w:
         w.add_model(robot(EXACT, fn='libhector_gazebo_ros_baro.so'), pose=Pose((0, 0, 2)))
-        w.add_model(parse_urdf('''<robot name="old"
-            xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
-          <link name="base"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-          <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-          <gazebo><controller:gazebo_ros_air_pressure name="b" plugin="libgazebo_ros_air_pressure.so">
-          <updateRate>5</updateRate><gaussianNoise>0</gaussianNoise>
-          </controller:gazebo_ros_air_pressure></gazebo></robot>'''), pose=Pose((0, 0, 2)))
+        w.add_model(robot('<updateRate>5</updateRate><gaussianNoise>0</gaussianNoise>', 'old',
+                          syntax='2011'), pose=Pose((0, 0, 2)))
         w.step(400)
         assert baro(w, 'old').timer.rate == 5
         assert baro(w, 'old').last_value == pytest.approx(baro(w, 'r').last_value)
-    finally:
-        w.shutdown()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<noiseModel>pink</noiseModel>', 'noiseModel must be'),
-    ('<stepMaximum>-1</stepMaximum>', 'stepMaximum must be'),
-])
-def test_bad_parameters_one_line_and_loads(params, words, caplog):
-    w = make_world('ode')
-    try:
-        with caplog.at_level(logging.ERROR):
-            w.add_model(robot(params), pose=Pose((0, 0, 1)))
-        lines = [r.getMessage() for r in caplog.records if words in r.getMessage()]
-        assert len(lines) == 1 and 'libgazebo_ros_air_pressure.so' in lines[0] \
-            and 'model r' in lines[0]
-        w.step(300)
-        assert 95000 < baro(w).last_value < 95400
-    finally:
-        w.shutdown()
 
 
 @pytest.mark.parametrize('noise', ['gaussian', 'step'])
 def test_same_seed_same_data(noise):
     def run(seed):
-        w = make_world('ode', seed)
-        try:
+        with worlds.opened('ode', seed, office='environment') as w:
             w.add_model(robot('<noiseModel>%s</noiseModel>' % noise), pose=Pose((0, 0, 1)))
-            out = []
-            for _ in range(30):
-                w.step(100)
-                out.append(baro(w).last_value)
-            return out
-        finally:
-            w.shutdown()
+            return worlds.sample(w, 100, 30, lambda: baro(w).last_value)
     a, b, c = run(1), run(1), run(2)
     assert a == b and a != c

@@ -1,46 +1,35 @@
-"""The battery (thesis 3.3.10, snippet 3.3.4, table 3.1) on the World, without ROS."""
+"""The battery (thesis 3.3.10, snippet 3.3.4, table 3.1) on the World, without ROS (bad
+parameters: test_sensor_contract.py)."""
 import math
 
 import pytest
 
 from sim_world.transforms import Pose
-from sim_world.urdf import parse_urdf
-from sim_world.world import World
 
 from simsensors.battery import COMPONENT_POWER, Battery, BatteryModel, component_power
 
-CLASSIC = '<gazebo><plugin name="battery" filename="libgazebo_ros_power_monitor.so">%s</plugin></gazebo>'
-Y2011 = ('<gazebo><controller:gazebo_ros_power_monitor name="gazebo_ros_power_monitor_controller" '
-         'plugin="libgazebo_ros_power_monitor.so">%s</controller:gazebo_ros_power_monitor></gazebo>')
+import worlds
+
 THESIS = ('<alwaysOn>true</alwaysOn><updateRate>1.0</updateRate><timeout>5</timeout>'
           '<robotNamespace>/mobile_device</robotNamespace><powerStateTopic>power_state</powerStateTopic>'
           '<powerStateRate>10.0</powerStateRate><fullChargeCapacity>1.400</fullChargeCapacity>'
           '<dischargeRate>0.100</dischargeRate><chargeRate>5</chargeRate>'
           '<dischargeVoltage>4.95</dischargeVoltage><chargeVoltage>5.05</chargeVoltage>')
+world = worlds.world_fixture(seed=5, step_size=0.01)
 
 
-def robot(name, params='', syntax=CLASSIC):
-    ns = ('xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller"'
-          if syntax is Y2011 else '')
-    return parse_urdf('''<robot name="%s" %s><link name="base">
-      <inertial><mass value="0.129"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
-      <collision><geometry><box size="0.12 0.06 0.01"/></geometry></collision></link>
-      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>%s</robot>'''
-                      % (name, ns, syntax % params))
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, step_size=0.01, seed=5)
-    yield w
-    w.shutdown()
+def robot(name, params='', syntax='classic'):
+    return worlds.sensor_robot(
+        'libgazebo_ros_power_monitor.so', params, name, syntax, body=None, mass=0.129,
+        box=(0.12, 0.06, 0.01),
+        plugin='battery' if syntax == 'classic' else 'gazebo_ros_power_monitor_controller')
 
 
 def battery_of(world, name):
-    return [p for p in world.plugins[name] if isinstance(p, Battery)][0]
+    return worlds.plugin_of(world, Battery, name)
 
 
-@pytest.mark.parametrize('syntax', [CLASSIC, Y2011], ids=['classic', '2011'])
+@pytest.mark.parametrize('syntax', ['classic', '2011'])
 def test_thesis_parameters_both_syntaxes(world, syntax):
     world.add_model(robot('phone', THESIS, syntax), pose=Pose((0, 0, 1)))
     b = battery_of(world, 'phone')
@@ -130,31 +119,9 @@ def test_component_power_pure():
 
 def test_same_seed_same_data():
     def run():
-        w = World(physics='ode', step_size=0.01, seed=11)
-        try:
+        with worlds.opened('ode', 11, step_size=0.01) as w:
             w.add_model(robot('p'), pose=Pose((0, 0, 1)))
             b = battery_of(w, 'p')
-            out = []
-            for _ in range(5):
-                w.step(100)
-                out.append((b.model_b.charge, b.last_msg.percentage, b.last_msg.current))
-            return out
-        finally:
-            w.shutdown()
+            return worlds.sample(w, 100, 5, lambda: (b.model_b.charge, b.last_msg.percentage,
+                                                     b.last_msg.current))
     assert run() == run()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<fullChargeCapacity>-1</fullChargeCapacity>', 'fullChargeCapacity must be a number > 0'),
-    ('<powerStateRate>abc</powerStateRate>', 'powerStateRate must be a number'),
-    ('<initialCharge>1.5</initialCharge>', 'initialCharge'),
-    ('<displayPower>-0.2</displayPower>', 'displayPower'),
-])
-def test_bad_params_one_line(world, caplog, params, words):
-    world.add_model(robot('bad', params))
-    assert 'bad' in world.models and len(world.plugins['bad']) == 1
-    lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
-    assert len(lines) == 1, lines
-    assert words in lines[0] and 'libgazebo_ros_power_monitor.so' in lines[0] and 'bad' in lines[0]
-    world.step(150)
-    assert battery_of(world, 'bad').model_b.charge > 0

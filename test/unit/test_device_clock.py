@@ -1,34 +1,25 @@
 """The device clock (thesis 3.3.9) on the real World, both engines, without ROS: sim time
 x (1 + drift) + offset, set from outside, refused bad times, TimeReference message, 2011
-syntax, bad parameters, same seed same data."""
+syntax, same seed same data (bad parameters: test_sensor_contract.py)."""
 import logging
 
 import pytest
 
 from sim_world.transforms import Pose
-from sim_world.urdf import parse_urdf
-from sim_world.world import World
 
 from simsensors.device_clock import DeviceClock
 
+import worlds
 
-def robot(params='', name='r'):
-    return parse_urdf('''<robot name="%s"><link name="base">
-      <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-      <gazebo><plugin name="device_clock" filename="libgazebo_ros_device_clock.so">
-        <bodyName>base</bodyName>%s</plugin></gazebo></robot>''' % (name, params))
+world = worlds.world_fixture(seed=1)
 
 
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, seed=1)
-    yield w
-    w.shutdown()
+def robot(params='', name='r', syntax='classic', plugin='device_clock'):
+    return worlds.sensor_robot('libgazebo_ros_device_clock.so', params, name, syntax, plugin)
 
 
 def clock(world, name='r'):
-    return [p for p in world.plugins[name] if isinstance(p, DeviceClock)][0]
+    return worlds.plugin_of(world, DeviceClock, name)
 
 
 def test_drift_and_offset(world):
@@ -72,53 +63,21 @@ def test_bad_device_time_refused(world, bad, caplog):
 
 
 def test_2011_syntax():
-    w = World(physics='ode', seed=1)
-    try:
-        w.add_model(parse_urdf('''<robot name="old"
-            xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
-          <link name="base"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-          <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-          <gazebo><controller:gazebo_ros_device_clock name="clk" plugin="libgazebo_ros_device_clock.so">
-          <updateRate>4</updateRate><driftPpm>1000</driftPpm><robotNamespace>/phone</robotNamespace>
-          </controller:gazebo_ros_device_clock></gazebo></robot>'''), pose=Pose((0, 0, 1)))
+    with worlds.opened('ode', 1) as w:
+        w.add_model(robot('<updateRate>4</updateRate><driftPpm>1000</driftPpm>'
+                          '<robotNamespace>/phone</robotNamespace>', 'old', '2011', 'clk'),
+                    pose=Pose((0, 0, 1)))
         c = clock(w, 'old')
         assert c.topic == '/phone/time_reference' and c.timer.rate == 4
         w.step(2000)
         assert c.pub.count == 9 and c.last_value == pytest.approx(2.002)
         assert c.last_msg.source == 'clk'
-    finally:
-        w.shutdown()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<driftPpm>fast</driftPpm>', 'driftPpm must be'),
-    ('<offset>-3</offset>', 'offset must be'),
-])
-def test_bad_parameters_one_line_and_loads(params, words, caplog):
-    w = World(physics='ode', seed=1)
-    try:
-        with caplog.at_level(logging.ERROR):
-            w.add_model(robot(params), pose=Pose((0, 0, 1)))
-        lines = [r.getMessage() for r in caplog.records if words in r.getMessage()]
-        assert len(lines) == 1 and 'libgazebo_ros_device_clock.so' in lines[0] \
-            and 'model r' in lines[0]
-        w.step(3000)
-        assert clock(w).last_value == pytest.approx(3.0)
-    finally:
-        w.shutdown()
 
 
 def test_same_seed_same_data():
     def run(seed):
-        w = World(physics='ode', seed=seed)
-        try:
+        with worlds.opened('ode', seed) as w:
             w.add_model(robot('<driftPpm>20</driftPpm>'), pose=Pose((0, 0, 1)))
-            out = []
-            for _ in range(5):
-                w.step(1000)
-                out.append(clock(w).last_msg.time_ref.to_nsec())
-            return out
-        finally:
-            w.shutdown()
+            return worlds.sample(w, 1000, 5, lambda: clock(w).last_msg.time_ref.to_nsec())
     # no noise in a clock: any seed gives the same times (nothing random leaks in)
     assert run(1) == run(1) == run(2)

@@ -1,58 +1,34 @@
 """The GPS receiver (thesis 3.3.1, snippet 3.3.1) on the real World, both engines, without
 ROS: metres per degree in UTM, no fix indoors, the fix back after the time to first fix,
-NMEA sentences that parse, both URDF syntaxes, bad parameters, same seed same data."""
-import logging
+NMEA sentences that parse, both URDF syntaxes, same seed same data (bad parameters:
+test_sensor_contract.py)."""
 import math
-import os
 
 import numpy as np
 import pynmea2
 import pytest
 
-from sim_world.sdf import load_world_file
 from sim_world.transforms import Pose
 from sim_world.urdf import parse_urdf
-from sim_world.world import World
 
 from simsensors.gps import Gps, nmea_sentences
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+import worlds
+
 EXACT = ('<positionGaussianNoise>0</positionGaussianNoise><positionDrift>0</positionDrift>'
          '<velocityGaussianNoise>0</velocityGaussianNoise>')
 OUTSIDE = np.array([20.0, 20.0, 1.0])
 INSIDE = np.array([3.0, -2.0, 1.0])          # the office's middle
 DOOR_OUT = np.array([8.0, -3.0, 1.0])        # just outside the door
+world = worlds.world_fixture(seed=3, office='environment')
 
 
 def robot(name='phone', params=EXACT):
-    return parse_urdf('''<robot name="%s"><link name="base">
-      <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-      <gazebo><plugin name="gps" filename="libgazebo_ros_gps.so">
-        <bodyName>base</bodyName>%s</plugin></gazebo></robot>''' % (name, params))
-
-
-@pytest.fixture(scope='module')
-def office_env_text():
-    return OFFICE
-
-
-def make_world(engine, seed=3):
-    w = World(physics=engine, seed=seed)
-    w.environment = load_world_file(OFFICE).environment
-    return w
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = make_world(request.param)
-    yield w
-    w.shutdown()
+    return worlds.sensor_robot('libgazebo_ros_gps.so', params, name, plugin='gps')
 
 
 def gps(world, name='phone'):
-    return [p for p in world.plugins[name] if isinstance(p, Gps)][0]
+    return worlds.plugin_of(world, Gps, name)
 
 
 def move(world, name, p):
@@ -151,8 +127,7 @@ def test_velocity_enu_and_nmea_parse(world):
 def test_latlon_start_of_the_2011_syntax():
     """Thesis snippet 3.3.1: <sensor:gps><LatLon> is the starting point; moving adds the
     distance in UTM. <controller:generic_gps> names no library."""
-    w = make_world('ode')
-    try:
+    with worlds.opened('ode', 3, office='environment') as w:
         w.add_model(parse_urdf('''<robot name="r"
             xmlns:sensor="http://playerstage.sourceforge.net/gazebo/xmlschema/#sensor"
             xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller"
@@ -172,42 +147,14 @@ def test_latlon_start_of_the_2011_syntax():
         w.step(1000)
         lat = g.last_value[2][0]
         assert (lat - lat0) * 111034 == pytest.approx(500, rel=0.003)   # at 40 deg
-    finally:
-        w.shutdown()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<LatLon>95 11</LatLon>', 'LatLon must be two numbers "latitude longitude" in degrees, latitude in [-90, 90]'),
-    ('<referenceLatitude>-91</referenceLatitude>', 'referenceLatitude must be'),
-    ('<coldStartTime>soon</coldStartTime>', 'coldStartTime must be'),
-])
-def test_bad_parameters_one_line_and_loads(params, words, caplog):
-    w = make_world('ode')
-    try:
-        with caplog.at_level(logging.ERROR):
-            w.add_model(robot(params=params), pose=Pose(tuple(OUTSIDE)))
-        lines = [r.getMessage() for r in caplog.records if words in r.getMessage()]
-        assert len(lines) == 1 and 'libgazebo_ros_gps.so' in lines[0] and 'phone' in lines[0]
-        g = gps(w)
-        w.step(2000)
-        assert g.last_value[1]                          # still works with the default
-        assert g.timer.rate == 1.0 or 'updateRate' not in words
-    finally:
-        w.shutdown()
 
 
 def test_same_seed_same_data():
     def run(seed):
-        w = make_world('ode', seed)
-        try:
+        with worlds.opened('ode', seed, office='environment') as w:
             w.add_model(robot(params=''), pose=Pose(tuple(OUTSIDE)))
-            out = []
-            for _ in range(5):
-                w.step(1000)
-                out.append((gps(w).last_value[2], tuple(gps(w).last_value[3])))
-            return out
-        finally:
-            w.shutdown()
+            return worlds.sample(w, 1000, 5, lambda: (gps(w).last_value[2],
+                                                      tuple(gps(w).last_value[3])))
     a, b, c = run(5), run(5), run(6)
     assert a == b and a != c
     # default noise is on: the positions move between samples

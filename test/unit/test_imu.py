@@ -1,4 +1,5 @@
-"""The IMU plugin (thesis 3.3.3, snippet 3.3.2) on the World, without ROS."""
+"""The IMU plugin (thesis 3.3.3, snippet 3.3.2) on the World, without ROS (bad parameters:
+test_sensor_contract.py)."""
 import math
 
 import numpy as np
@@ -6,7 +7,8 @@ import pytest
 
 from sim_world.transforms import Pose
 from sim_world.urdf import parse_urdf
-from sim_world.world import World
+
+import worlds
 
 
 NO_NOISE = '<accelGaussianNoise>0</accelGaussianNoise><rateGaussianNoise>0</rateGaussianNoise>'
@@ -22,11 +24,7 @@ def robot(name, gravity=True, imu='<updateRate>100</updateRate>' + NO_NOISE):
                       % (name, g, imu))
 
 
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param)
-    yield w
-    w.shutdown()
+world = worlds.world_fixture(seed=None)
 
 
 def imu_of(world, name):
@@ -115,23 +113,3 @@ def test_hector_names_per_channel(world):
     q, gyro, force = imu_of(world, 'hector').last
     assert force == pytest.approx([0.5, 0, 9.81], abs=1e-3)
     assert gyro == pytest.approx([0, 0, 0.1], abs=1e-6)
-
-
-@pytest.mark.parametrize('imu, words, loads', [
-    ('<bodyName>ghost</bodyName>', 'ghost', False),
-    ('<updateRate>-3</updateRate>', 'updateRate must be a number >= 0', True),
-    ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets must be three numbers', True),
-    ('<xyzOffsets>0 0 0.1</xyzOffsets>', 'xyzOffsets must be three numbers zero', True),
-    ('<accelGaussianNoise>-1</accelGaussianNoise>', 'accelGaussianNoise', True),
-])
-def test_bad_params_one_line(world, caplog, imu, words, loads):
-    """A bad value: one error line naming plugin, model, parameter and value; the model
-    loads, and the plugin too (with the default) unless it cannot work at all."""
-    xml = robot('bad', imu=imu).source_xml.replace('<bodyName>base</bodyName>', '') \
-        if 'bodyName' in imu else robot('bad', imu=imu).source_xml
-    world.add_model(parse_urdf(xml))
-    assert 'bad' in world.models
-    assert (len(world.plugins['bad']) == 1) == loads
-    lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
-    assert len(lines) == 1, lines
-    assert words in lines[0] and 'libgazebo_ros_imu.so' in lines[0] and 'bad' in lines[0]

@@ -1,42 +1,25 @@
 """The ambient light sensor (thesis 3.3.12) on the real phone in the office world, both
-engines, without ROS."""
-import importlib.util
+engines, without ROS (bad parameters: test_sensor_contract.py)."""
 import math
-import os
 
 import numpy as np
 import pytest
 
 from sim_world.transforms import Pose
-from sim_world.urdf import load_urdf_file, parse_urdf
-from sim_world.world import World
-
-#: the ray caster (sim_world.raycast, world.raycast) is another helper's work; until it is in
-#: the tree the tests that need it are skipped, and run as soon as it lands
-needs_raycast = pytest.mark.skipif(
-    importlib.util.find_spec('sim_world.raycast') is None and not hasattr(World, 'raycast'),
-    reason='world.raycast (sim_world.raycast) is not in the tree yet')
+from sim_world.urdf import parse_urdf
 
 from simsensors.light_sensor import LightSensor, luminance
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
-OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+import worlds
+from worlds import needs_raycast
+
 DESK = (3.32, -2.10, 0.75)            # desk top centre
 HALF = 0.01088 / 2
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, seed=2)
-    w.load_world_file(OFFICE)
-    w.add_model(load_urdf_file(PHONE), pose=Pose((DESK[0], DESK[1], 1.0)))
-    yield w
-    w.shutdown()
+world = worlds.world_fixture(seed=2, office='world', phone=(DESK[0], DESK[1], 1.0))
 
 
 def light(world):
-    return [p for p in world.plugins['mobile_device'] if isinstance(p, LightSensor)][0]
+    return worlds.plugin_of(world, LightSensor, 'mobile_device')
 
 
 def reading(world, steps=400):
@@ -105,41 +88,7 @@ def test_outdoors_daylight_and_environment(world):
 
 def test_same_seed_same_data():
     def run():
-        w = World(physics='ode', seed=12)
-        try:
-            w.load_world_file(OFFICE)
-            w.add_model(load_urdf_file(PHONE), pose=Pose((DESK[0], DESK[1], 1.0)))
-            out = []
-            for _ in range(10):
-                w.step(200)
-                out.append(light(w).last_value[0])
-            return out
-        finally:
-            w.shutdown()
+        with worlds.opened('ode', 12, office='world', phone=(DESK[0], DESK[1], 1.0)) as w:
+            return worlds.sample(w, 200, 10, lambda: light(w).last_value[0])
     a, b = run(), run()
     assert a == b and len(set(a)) > 1          # jitter differs from sample to sample
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<candelaPerUnit>-5</candelaPerUnit>', 'candelaPerUnit must be a number >= 0'),
-    ('<skyFraction>2</skyFraction>', 'skyFraction'),
-    ('<updateRate>fast</updateRate>', 'updateRate must be a number'),
-])
-def test_bad_params_one_line(caplog, params, words):
-    w = World(physics='ode', seed=1)
-    try:
-        w.load_world_file(OFFICE)
-        caplog.clear()
-        w.add_model(parse_urdf('''<robot name="r"><link name="base">
-          <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-          <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-          <gazebo><plugin name="p" filename="libgazebo_ros_light_sensor.so">%s</plugin></gazebo>
-          </robot>''' % params), pose=Pose((DESK[0], DESK[1], 1.0)))
-        assert len(w.plugins['r']) == 1
-        lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
-        assert len(lines) == 1, lines
-        assert words in lines[0] and 'libgazebo_ros_light_sensor.so' in lines[0] and ' r' in lines[0]
-        w.step(500)
-        assert w.plugins['r'][0].last_value[0] > 100
-    finally:
-        w.shutdown()

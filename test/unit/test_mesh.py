@@ -12,32 +12,10 @@ from sim_world.physics import ENGINES, lump_model, make_engine
 from sim_world.render import shapes
 from sim_world.transforms import Pose
 
+from meshfiles import write_dae
+
 DT = 0.001
 R = 0.005            # radius of the probe balls
-
-
-def _write_dae(path, tris, unit, up):
-    tris = np.asarray(tris, float)
-    n = len(tris)
-    pos = ' '.join('%.6f' % c for c in tris.ravel())
-    idx = ' '.join(str(i) for i in range(3 * n))
-    with open(path, 'w') as f:
-        f.write('''<?xml version="1.0" encoding="utf-8"?>
-<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
- <asset><unit name="u" meter="%g"/><up_axis>%s</up_axis></asset>
- <library_geometries><geometry id="g" name="g"><mesh>
-  <source id="p"><float_array id="pa" count="%d">%s</float_array>
-   <technique_common><accessor source="#pa" count="%d" stride="3">
-    <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
-   </accessor></technique_common></source>
-  <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
-  <triangles count="%d"><input semantic="VERTEX" source="#v" offset="0"/><p>%s</p></triangles>
- </mesh></geometry></library_geometries>
- <library_visual_scenes><visual_scene id="s"><node id="n" name="n">
-  <instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
- <scene><instance_visual_scene url="#s"/></scene>
-</COLLADA>
-''' % (unit, up, 9 * n, pos, 3 * n, n, idx))
 
 
 @pytest.fixture
@@ -47,7 +25,7 @@ def slab_dae(tmp_path):
     tris = shapes.box((20.0, 2.0, 10.0)).positions.reshape(-1, 3, 3).copy()
     tris[::3] = tris[::3, ::-1]
     path = str(tmp_path / 'slab.dae')
-    _write_dae(path, tris, unit=0.01, up='Y_UP')
+    write_dae(path, tris, unit=0.01, up='Y_UP')
     smesh.clear_cache()
     return path
 

@@ -7,6 +7,8 @@ from sim_world.physics import make_engine
 from sim_world.transforms import Pose
 from sim_world.urdf import parse_urdf
 
+from worlds import finger
+
 PHONE = parse_urdf('''<robot name="phone">
   <link name="body"><inertial><mass value="0.129"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
     <collision><geometry><box size="0.12 0.06 0.01"/></geometry></collision></link>
@@ -15,13 +17,6 @@ PHONE = parse_urdf('''<robot name="phone">
     <collision><geometry><box size="0.09 0.054 0.0005"/></geometry></collision></link>
   <gazebo reference="body"><turnGravityOff>true</turnGravityOff></gazebo>
   <gazebo reference="screen"><turnGravityOff>true</turnGravityOff></gazebo></robot>''')
-
-
-def finger(name='finger', radius=0.005):
-    return parse_urdf('''<robot name="%s"><link name="tip">
-      <inertial><mass value="0.01"/><inertia ixx="1e-7" iyy="1e-7" izz="1e-7"/></inertial>
-      <collision><geometry><sphere radius="%g"/></geometry></collision></link>
-      <gazebo reference="tip"><turnGravityOff>true</turnGravityOff></gazebo></robot>''' % (name, radius))
 
 
 @pytest.fixture(params=['ode', 'bullet'])

@@ -74,19 +74,26 @@ def _scene(on=True, **params):
     return w, p
 
 
+def _red_green_on_the_floor(w, proj):
+    """Projects a picture, left half red, right half green, and steps 40 ms: the renderer,
+    a camera looking at the floor and what it saw before the picture."""
+    r = w.renderer
+    cam = CameraView(160, 120, math.radians(70),
+                     Pose.from_xyz_rpy((-1.2, 0, 1.2), (0, math.radians(45), 0)),
+                     background=(0.2, 0.2, 0.2))
+    dark = r.render(cam).astype(int)          # before any picture
+    img = np.zeros((48, 64, 3), np.uint8)
+    img[:, :32] = (255, 0, 0)
+    img[:, 32:] = (0, 255, 0)
+    proj.set_image(img)
+    w.step(40)
+    return r, cam, dark
+
+
 def test_camera_sees_the_projected_picture_on_the_floor_and_not_when_off(caplog):
     w, proj = _scene()
     try:
-        r = w.renderer
-        cam = CameraView(160, 120, math.radians(70),
-                         Pose.from_xyz_rpy((-1.2, 0, 1.2), (0, math.radians(45), 0)),
-                         background=(0.2, 0.2, 0.2))
-        dark = r.render(cam).astype(int)          # before any picture
-        img = np.zeros((48, 64, 3), np.uint8)
-        img[:, :32] = (255, 0, 0)            # left half red, right half green
-        img[:, 32:] = (0, 255, 0)
-        proj.set_image(img)
-        w.step(40)
+        r, cam, dark = _red_green_on_the_floor(w, proj)
         assert w.power.draws('proj')['projector'] == pytest.approx(1.5)
         lit = r.render(cam).astype(int)
         # image left = projector link +y = world +y (pitched down); 0.2 m each side
@@ -142,16 +149,7 @@ def test_an_object_between_the_projector_and_the_floor_blocks_the_picture():
     green half still lands on the floor. Without the board the floor shows red there."""
     w, proj = _scene()
     try:
-        r = w.renderer
-        cam = CameraView(160, 120, math.radians(70),
-                         Pose.from_xyz_rpy((-1.2, 0, 1.2), (0, math.radians(45), 0)),
-                         background=(0.2, 0.2, 0.2))
-        dark = r.render(cam).astype(int)
-        img = np.zeros((48, 64, 3), np.uint8)
-        img[:, :32] = (255, 0, 0)
-        img[:, 32:] = (0, 255, 0)
-        proj.set_image(img)
-        w.step(40)
+        r, cam, dark = _red_green_on_the_floor(w, proj)
 
         def px(p, im):
             u, v = [int(round(c)) for c in cam.project(p)[0]]

@@ -1,25 +1,18 @@
 """The proximity sensor (thesis 3.3.7) on the real phone model and World, both engines,
-without ROS: a ray along the screen's +z through the world's geometry."""
-import importlib.util
-import os
-
+without ROS: a ray along the screen's +z through the world's geometry (bad parameters:
+test_sensor_contract.py)."""
 import pytest
 
 from sim_world.transforms import Pose
 from sim_world.urdf import load_urdf_file, parse_urdf
-from sim_world.world import World
-
-#: the ray caster (sim_world.raycast, world.raycast) is another helper's work; until it is in
-#: the tree the tests that need it are skipped, and run as soon as it lands
-needs_raycast = pytest.mark.skipif(
-    importlib.util.find_spec('sim_world.raycast') is None and not hasattr(World, 'raycast'),
-    reason='world.raycast (sim_world.raycast) is not in the tree yet')
 
 from simsensors.proximity import Proximity, proximity_value
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+import worlds
+from worlds import needs_raycast
+
 SENSOR = (0.055, 0.012, 1 + 0.01088 / 2 + 0.0005)     # the sensor link, phone at (0, 0, 1)
+world = worlds.world_fixture(seed=4, phone=(0, 0, 1))
 
 
 def hand(static=True):
@@ -31,16 +24,8 @@ def hand(static=True):
     return m
 
 
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, seed=4)
-    w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
-    yield w
-    w.shutdown()
-
-
 def prox(world, name='mobile_device'):
-    return [p for p in world.plugins[name] if isinstance(p, Proximity)][0]
+    return worlds.plugin_of(world, Proximity, name)
 
 
 def at(h):
@@ -82,7 +67,7 @@ def test_ignores_its_own_phone_and_looks_along_the_screen_normal(world):
 
 @needs_raycast
 def test_distance_mode(world):
-    phone = load_urdf_file(PHONE)
+    phone = load_urdf_file(worlds.PHONE)
     for spec in phone.plugins:
         if spec.filename == 'libgazebo_ros_proximity.so':
             for el in spec.element:
@@ -119,39 +104,7 @@ def test_pure_values():
 @needs_raycast
 def test_same_seed_same_data():
     def run():
-        w = World(physics='ode', seed=9)
-        try:
-            w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
+        with worlds.opened('ode', 9, phone=(0, 0, 1)) as w:
             w.add_model(hand(), pose=at(0.03))
-            out = []
-            for _ in range(10):
-                w.step(100)
-                out.append(prox(w).last_value)
-            return out
-        finally:
-            w.shutdown()
+            return worlds.sample(w, 100, 10, lambda: prox(w).last_value)
     assert run() == run()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<maxRange>-1</maxRange>', 'maxRange must be a number > 0'),
-    ('<mode>sonar</mode>', 'mode must be one of binary, distance'),
-    ('<minRange>0.1</minRange>', 'minRange must be below maxRange'),
-    ('<direction>0 0 0</direction>', 'direction must be a non-zero vector'),
-])
-def test_bad_params_one_line(caplog, params, words):
-    w = World(physics='ode', seed=1)
-    try:
-        w.add_model(parse_urdf('''<robot name="r"><link name="base">
-          <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
-          <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-          <gazebo><plugin name="p" filename="libgazebo_ros_proximity.so">%s</plugin></gazebo>
-          </robot>''' % params), pose=Pose((0, 0, 1)))
-        assert len(w.plugins['r']) == 1
-        lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
-        assert len(lines) == 1, lines
-        assert words in lines[0] and 'libgazebo_ros_proximity.so' in lines[0] and ' r' in lines[0]
-        w.step(200)
-        assert prox(w, 'r').last_value == 0.05
-    finally:
-        w.shutdown()

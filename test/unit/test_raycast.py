@@ -1,7 +1,5 @@
 """sim_world.raycast: first hits and inside-intervals over the world's collision shapes (box,
 sphere, cylinder, mesh, plane) at their current poses, on both engines."""
-import os
-
 import numpy as np
 import pytest
 
@@ -10,10 +8,10 @@ from sim_world.raycast import RayCaster
 from sim_world.sdf import parse_sdf_model
 from sim_world.transforms import Pose
 from sim_world.urdf import parse_urdf
-from sim_world.world import World
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+import worlds
+
+world = worlds.world_fixture(seed=1)
 
 
 def static(name, geom, pose, material=None):
@@ -27,13 +25,6 @@ def static(name, geom, pose, material=None):
 def wall(name, x, thickness, material=None):
     return static(name, Geometry('box', size=(thickness, 4.0, 3.0)), Pose((x, 0, 1.5)),
                   material)
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, seed=1)
-    yield w
-    w.shutdown()
 
 
 def test_box_distance_normal_point(world):
@@ -139,7 +130,7 @@ def test_moving_model_seen_at_once(world):
 
 
 def test_office_walls(world):
-    world.load_world_file(OFFICE)
+    world.load_world_file(worlds.OFFICE)
     # from the desk westwards: the inner drywall wall (x 1.4..1.6), then the west wall (x < 0)
     h = world.raycast((3.32, -1.0, 1.5), (-1, 0, 0), 20)
     assert (h.model, h.material) == ('inner_wall', 'drywall')
@@ -164,10 +155,7 @@ def test_bad_input(world):
 
 
 def test_caster_standalone():
-    w = World(physics='ode', seed=1)
-    try:
+    with worlds.opened('ode', 1) as w:
         w.add_model(wall('w', 1.0, 0.1))
         c = RayCaster(w)
         assert c.raycast((0, 0, 1), (1, 0, 0), 5).distance == pytest.approx(0.95)
-    finally:
-        w.shutdown()

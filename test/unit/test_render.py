@@ -11,6 +11,8 @@ from sim_world.model import Geometry, Light, Link, Material, Model, Visual
 from sim_world.render import CameraView, Renderer, get_context, shapes
 from sim_world.transforms import Pose
 
+from meshfiles import write_dae
+
 RED = Material((1.0, 0.0, 0.0, 1.0), lit=False)
 
 
@@ -271,41 +273,6 @@ def _write_stl(path, tris):
         f.write('endsolid t\n')
 
 
-def _write_dae(path, tris, unit=1.0, up='Z_UP', colour=None):
-    pos = ' '.join('%.6f' % c for c in np.asarray(tris).ravel())
-    n = len(tris)
-    idx = ' '.join(str(i) for i in range(3 * n))
-    mat, bind, tri_mat = '', '', ''
-    if colour is not None:
-        mat = ('<library_effects><effect id="fx"><profile_COMMON><technique sid="c"><lambert>'
-               '<diffuse><color>%g %g %g 1</color></diffuse></lambert></technique>'
-               '</profile_COMMON></effect></library_effects><library_materials>'
-               '<material id="m"><instance_effect url="#fx"/></material></library_materials>'
-               % tuple(colour))
-        bind = ('<bind_material><technique_common><instance_material symbol="s" target="#m"/>'
-                '</technique_common></bind_material>')
-        tri_mat = ' material="s"'
-    doc = '''<?xml version="1.0" encoding="utf-8"?>
-<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
- <asset><unit name="u" meter="%g"/><up_axis>%s</up_axis></asset>
- ''' % (unit, up) + mat + '''
- <library_geometries><geometry id="g" name="g"><mesh>
-  <source id="p"><float_array id="pa" count="%d">%s</float_array>
-   <technique_common><accessor source="#pa" count="%d" stride="3">
-    <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
-   </accessor></technique_common></source>
-  <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
-  <triangles count="%d"%s><input semantic="VERTEX" source="#v" offset="0"/><p>%s</p></triangles>
- </mesh></geometry></library_geometries>
- <library_visual_scenes><visual_scene id="s"><node id="n" name="n">
-  <instance_geometry url="#g">%s</instance_geometry></node></visual_scene></library_visual_scenes>
- <scene><instance_visual_scene url="#s"/></scene>
-</COLLADA>
-''' % (9 * n, pos, 3 * n, n, tri_mat, idx, bind)
-    with open(path, 'w') as f:
-        f.write(doc)
-
-
 def test_obj_without_normals_gets_flat_faces_and_outward_normals(tmp_path):
     tris = _cube_tris()
     tris[::2] = tris[::2, ::-1]              # scramble the winding of every other triangle
@@ -378,7 +345,7 @@ def test_collada_unit_and_up_axis(tmp_path, unit, up):
     # a bar 1 m long along the file's up axis, 0.2 m thick, written in the file's units
     tris = shapes.box((0.2, 0.2, 1.0) if up == 'Z_UP' else (0.2, 1.0, 0.2)).positions
     tris = tris.reshape(-1, 3, 3) / unit
-    _write_dae(str(tmp_path / 'bar.dae'), tris, unit, up)
+    write_dae(str(tmp_path / 'bar.dae'), tris, unit, up)
     md = shapes.load_mesh(str(tmp_path / 'bar.dae'), scale=(1, 1, 1))
     lo, hi = md.bounds()
     assert np.allclose(hi - lo, (0.2, 0.2, 1.0), atol=1e-5), (lo, hi)   # upright, metres
@@ -474,8 +441,8 @@ def test_every_face_shows_the_image_upright_and_unmirrored(face, up):
 
 
 def test_collada_colour_applies_unless_the_visual_names_a_material(tmp_path):
-    _write_dae(str(tmp_path / 'red.dae'), shapes.box((0.6, 0.6, 0.6)).positions.reshape(-1, 3, 3),
-               colour=(0.9, 0.1, 0.1))
+    write_dae(str(tmp_path / 'red.dae'), shapes.box((0.6, 0.6, 0.6)).positions.reshape(-1, 3, 3),
+              colour=(0.9, 0.1, 0.1))
     r = Renderer()
     r.set_lights([], ambient=(1, 1, 1), default_sun=False)
     r.add_model(Model('own', links={'l': Link('l', visuals=[
@@ -539,7 +506,7 @@ def test_phone_shell_like_the_thesis_nexus_s_renders_from_the_back(tmp_path):
     tris = tris[centres[:, 2] > -0.5]
     tris = tris.copy()
     tris[::3] = tris[::3, ::-1]
-    _write_dae(str(tmp_path / 'phone.dae'), tris, unit=0.01, up='Y_UP', colour=(0.2, 0.2, 0.8))
+    write_dae(str(tmp_path / 'phone.dae'), tris, unit=0.01, up='Y_UP', colour=(0.2, 0.2, 0.8))
     md = shapes.load_mesh(str(tmp_path / 'phone.dae'))
     lo, hi = md.bounds()
     # metres, long axis up (z) after the Y_UP fix, thickness along y

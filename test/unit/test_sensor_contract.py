@@ -8,7 +8,10 @@
   refused with a ValueError naming the plugin and the reason;
 * every sensor and actuator loads in both URDF syntaxes (Gazebo classic ``<plugin>`` and the
   thesis's 2011 ``<controller:...>``), in the robot namespace given, and a bad parameter is
-  one error line naming the plugin, the model and the parameter, while the plugin loads.
+  one error line naming the plugin, the model and the parameter, while the plugin loads;
+* each sensor's own bad parameters (``BAD``): one such line each, and the plugin works on
+  the default, or does not load where it cannot work without the parameter (the sensor's
+  own test file keeps what is particular to the sensor).
 
 The fault runs: the office world and the phone just outside the office door (outdoors: a
 GPS fix, the heart-rate belt in range), seeded; at T_FAULT every sensor gets the fault; a
@@ -18,6 +21,7 @@ poster. Each run is compared with the same run without the fault.
 import logging
 import os
 
+import numpy as np
 import pytest
 
 from sim_world import plugins as registry
@@ -25,8 +29,12 @@ from sim_world.plugins.device import Actuator, Device
 from sim_world.plugins.device import content as _content
 from sim_world.plugins.sensor import FAULTS, Sensor, inject_fault
 from sim_world.transforms import Pose
-from sim_world.urdf import load_urdf_file, parse_urdf
+from sim_world.urdf import load_urdf_file
 from sim_world.world import World
+
+from simsensors.touch import DOWN, UP
+
+import worlds
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
@@ -253,34 +261,17 @@ def test_unknown_fault_is_refused_with_the_known_ones():
 
 
 # -- both syntaxes, one line per bad parameter ---------------------------------------------------
-def _one_link(plugin_xml, name='r'):
-    return parse_urdf('''<robot name="%s"
-        xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
-      <link name="base"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/>
-      </inertial><visual><geometry><box size="0.1 0.06 0.01"/></geometry></visual>
-      <collision><geometry><box size="0.1 0.06 0.01"/></geometry></collision></link>
-      <gazebo reference="base"><turnGravityOff>true</turnGravityOff></gazebo>
-      <gazebo>%s</gazebo></robot>''' % (name, plugin_xml))
-
-
-SYNTAXES = {
-    'classic': '<plugin name="p" filename="%s">%s</plugin>',
-    '2011': '<controller:x name="p" plugin="%s">%s</controller:x>',
-}
-
-
-@pytest.mark.parametrize('syntax', sorted(SYNTAXES))
+@pytest.mark.parametrize('syntax', ['2011', 'classic'])
 @pytest.mark.parametrize('cls', DEVICES, ids=lambda c: c.__name__)
 def test_loads_in_both_syntaxes_and_a_bad_parameter_is_one_line(cls, syntax, caplog):
     lib = cls.names[0]
-    w = World(physics='ode', seed=1)
-    try:
+    with worlds.opened('ode', seed=1) as w:
         with caplog.at_level(logging.ERROR):
-            w.add_model(_one_link(SYNTAXES[syntax] % (
+            w.add_model(worlds.one_link(worlds.plugin_xml(
                 lib, '<updateRate>7</updateRate><updateOffset>-1</updateOffset>'
-                '<robotNamespace>/phone</robotNamespace><data>U:http://x</data>')),
-                pose=Pose((0, 0, 1)))
-        lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
+                '<robotNamespace>/phone</robotNamespace><data>U:http://x</data>', syntax),
+                box=(0.1, 0.06, 0.01), visual=True), pose=Pose((0, 0, 1)))
+        lines = worlds.error_lines(caplog)
         assert len(lines) == 1, lines
         assert "updateOffset must be a number >= 0, got '-1'" in lines[0]
         assert lib in lines[0] and 'model r' in lines[0]
@@ -289,5 +280,111 @@ def test_loads_in_both_syntaxes_and_a_bad_parameter_is_one_line(cls, syntax, cap
         for o in p.pubs:
             assert o.topic.startswith('/phone/')
         w.step(200)                            # and it runs
-    finally:
-        w.shutdown()
+
+
+class Bad(object):
+    """A plugin's own bad parameters, ``cases`` [(parameters, words of the error line[,
+    False: the plugin cannot work without it and does not load])], on a one-link model
+    (``robot``: sensor_robot's keywords) at ``at`` in a world (``world``: make_world's
+    keywords) on each of ``engines``; after ``poke(plugin)`` and ``steps`` steps,
+    ``runs(plugin)`` says it works on the parameter's default (None: not run)."""
+
+    def __init__(self, lib, cases, steps=0, runs=None, poke=None, at=(0, 0, 1),
+                 engines=('ode',), world=None, **robot):
+        self.lib, self.cases, self.steps, self.runs, self.poke = lib, cases, steps, runs, poke
+        self.at, self.engines, self.world, self.robot = at, engines, world or {}, robot
+
+    def params(self):
+        for case in self.cases:
+            params, words, loads = (case + (True,))[:3]
+            for engine in self.engines:
+                tag, value = params[1:].split('<')[0].split('>')
+                yield pytest.param(self, params, words, loads, engine, id='%s-%s=%s-%s' % (
+                    self.lib[3:-3], tag, value, engine))
+
+
+OFFICE_ENV = dict(office='environment', seed=2)
+BAD = [
+    Bad('libgazebo_ros_ambient.so', [
+        ('<temperatureGaussianNoise>-1</temperatureGaussianNoise>',
+         'temperatureGaussianNoise must be'),
+        ('<onChangeOnly>maybe</onChangeOnly>', 'onChangeOnly must be'),
+    ], 1500, lambda p: abs(p.last_value[0] - 21) < 1, at=(3, -2, 1), world=OFFICE_ENV),
+    Bad('libhector_gazebo_ros_magnetic.so', [
+        ('<magnitude>1.0</magnitude>', 'magnitude must be'),
+        ('<inclination>120</inclination>', 'inclination must be'),
+        ('<updateRate>-5</updateRate>', 'updateRate must be'),
+        ('<gaussianNoise>loud</gaussianNoise>', 'gaussianNoise must be'),
+    ], 100, lambda p: np.linalg.norm(p.last_value) > 40e-6, world=OFFICE_ENV),
+    Bad('libgazebo_ros_air_pressure.so', [
+        ('<noiseModel>pink</noiseModel>', 'noiseModel must be'),
+        ('<stepMaximum>-1</stepMaximum>', 'stepMaximum must be'),
+    ], 300, lambda p: 95000 < p.last_value < 95400, world=OFFICE_ENV),
+    Bad('libgazebo_ros_gps.so', [
+        ('<LatLon>95 11</LatLon>',
+         'LatLon must be two numbers "latitude longitude" in degrees, latitude in [-90, 90]'),
+        ('<referenceLatitude>-91</referenceLatitude>', 'referenceLatitude must be'),
+        ('<coldStartTime>soon</coldStartTime>', 'coldStartTime must be'),
+    ], 2000, lambda p: p.last_value[1] and p.timer.rate == 1.0,        # a fix outdoors
+        at=(20, 20, 1), world=dict(office='environment', seed=3)),
+    Bad('libgazebo_ros_device_clock.so', [
+        ('<driftPpm>fast</driftPpm>', 'driftPpm must be'),
+        ('<offset>-3</offset>', 'offset must be'),
+    ], 3000, lambda p: p.last_value == pytest.approx(3.0)),
+    Bad('libgazebo_ros_proximity.so', [
+        ('<maxRange>-1</maxRange>', 'maxRange must be a number > 0'),
+        ('<mode>sonar</mode>', 'mode must be one of binary, distance'),
+        ('<minRange>0.1</minRange>', 'minRange must be below maxRange'),
+        ('<direction>0 0 0</direction>', 'direction must be a non-zero vector'),
+    ], 200, lambda p: p.last_value == 0.05, body=None),
+    Bad('libgazebo_ros_power_monitor.so', [
+        ('<fullChargeCapacity>-1</fullChargeCapacity>', 'fullChargeCapacity must be a number > 0'),
+        ('<powerStateRate>abc</powerStateRate>', 'powerStateRate must be a number'),
+        ('<initialCharge>1.5</initialCharge>', 'initialCharge'),
+        ('<displayPower>-0.2</displayPower>', 'displayPower'),
+    ], 150, lambda p: p.model_b.charge > 0, engines=worlds.ENGINES,
+        world=dict(step_size=0.01, seed=5), body=None, mass=0.129, box=(0.12, 0.06, 0.01)),
+    Bad('libgazebo_ros_light_sensor.so', [
+        ('<candelaPerUnit>-5</candelaPerUnit>', 'candelaPerUnit must be a number >= 0'),
+        ('<skyFraction>2</skyFraction>', 'skyFraction'),
+        ('<updateRate>fast</updateRate>', 'updateRate must be a number'),
+    ], 500, lambda p: p.last_value[0] > 100, at=(3.32, -2.10, 1.0),   # over the office desk
+        world=dict(office='world'), body=None),
+    Bad('libgazebo_ros_touch.so', [
+        ('<pressureStages>0</pressureStages>', 'pressureStages must be'),
+        ('<pressureDepth>-1</pressureDepth>', 'pressureDepth must be a number > 0'),
+        ('<buttons>power</buttons>', 'buttons must be name:link pairs'),
+        ('<buttons>power:ghost</buttons>', "'ghost' is not a link"),
+        ('<face>side</face>', 'face must be one of front, back'),
+    ], 30, lambda p: [e[1] for e in p.events] == [DOWN, UP],
+        poke=lambda p: p.inject_touch(10, 10, 0.01), link='screen', box=(0.1, 0.05, 0.001),
+        visual=True),
+    Bad('libgazebo_ros_imu.so', [
+        ('<bodyName>ghost</bodyName>', 'ghost', False),
+        ('<updateRate>-3</updateRate>', 'updateRate must be a number >= 0'),
+        ('<rpyOffsets>1 2</rpyOffsets>', 'rpyOffsets must be three numbers'),
+        ('<xyzOffsets>0 0 0.1</xyzOffsets>', 'xyzOffsets must be three numbers zero'),
+        ('<accelGaussianNoise>-1</accelGaussianNoise>', 'accelGaussianNoise'),
+    ], engines=worlds.ENGINES, world=dict(seed=None), mass=0.129, box=(0.12, 0.06, 0.01)),
+]
+
+
+@pytest.mark.parametrize('bad, params, words, loads, engine',
+                         [p for b in BAD for p in b.params()])
+def test_a_bad_parameter_is_one_line_and_the_plugin_runs_on_the_default(
+        bad, params, words, loads, engine, caplog):
+    with worlds.opened(engine, **bad.world) as w:
+        caplog.clear()                         # what loading the world said
+        with caplog.at_level(logging.ERROR):
+            w.add_model(worlds.sensor_robot(bad.lib, params, **bad.robot), pose=Pose(bad.at))
+        lines = worlds.error_lines(caplog)
+        assert len(lines) == 1, lines
+        assert words in lines[0] and bad.lib in lines[0] and 'model r' in lines[0]
+        assert 'r' in w.models and len(w.plugins['r']) == int(loads)
+        if not loads or bad.runs is None:
+            return
+        (p,) = w.plugins['r']
+        if bad.poke:
+            bad.poke(p)
+        w.step(bad.steps)
+        assert bad.runs(p)

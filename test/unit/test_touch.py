@@ -1,40 +1,28 @@
 """The touch screen and buttons (thesis 3.3.6, snippet 3.3.3) on the real phone model and the
-World, both engines, without ROS."""
+World, both engines, without ROS (bad parameters: test_sensor_contract.py)."""
 import math
-import os
 
 import pytest
 
 from sim_world.transforms import Pose
-from sim_world.urdf import load_urdf_file, parse_urdf
-from sim_world.world import World
+from sim_world.urdf import parse_urdf
 
 from simsensors.touch import DOWN, MOVE, UP, PointerTracker, TouchScreen
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+import worlds
+
 DEPTH = 0.01088                        # phone body thickness (xacro)
 TOP = DEPTH / 2 + 0.00025              # display's front face above mobile_base_link
 R = 0.004                              # finger tip radius
+world = worlds.world_fixture(seed=7, phone=(0, 0, 1))
 
 
 def finger(name):
-    return parse_urdf('''<robot name="%s"><link name="tip">
-      <inertial><mass value="0.01"/><inertia ixx="1e-7" iyy="1e-7" izz="1e-7"/></inertial>
-      <collision><geometry><sphere radius="%g"/></geometry></collision></link>
-      <gazebo reference="tip"><turnGravityOff>true</turnGravityOff></gazebo></robot>''' % (name, R))
-
-
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, seed=7)
-    w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
-    yield w
-    w.shutdown()
+    return worlds.finger(name, R)
 
 
 def touch_of(world, name='mobile_device'):
-    return [p for p in world.plugins[name] if isinstance(p, TouchScreen)][0]
+    return worlds.plugin_of(world, TouchScreen, name)
 
 
 def press(world, name, dx=0.0, dy=0.0, depth=0.0003):
@@ -158,66 +146,25 @@ def test_pointer_tracker_ids():
 
 def test_same_seed_same_events():
     def run(physics):
-        w = World(physics=physics, seed=3)
-        try:
-            w.add_model(load_urdf_file(PHONE), pose=Pose((0, 0, 1)))
+        with worlds.opened(physics, 3, phone=(0, 0, 1)) as w:
             press(w, 'finger', dx=0.01)
             t = touch_of(w)
             t.inject_touch(20, 30, 0.03, 0.2, 60, 90)
             w.step(100)
             return list(t.events)
-        finally:
-            w.shutdown()
     for physics in ('ode', 'bullet'):
         assert run(physics) == run(physics)
 
 
-CLASSIC = '<gazebo><plugin name="t" filename="libgazebo_ros_touch.so">%s</plugin></gazebo>'
-Y2011 = ('<gazebo><controller:gazebo_ros_touch name="t" plugin="libgazebo_ros_touch.so">%s'
-         '</controller:gazebo_ros_touch></gazebo>')
-
-
-def small_robot(params, syntax=CLASSIC):
-    return parse_urdf('''<robot name="r" xmlns:controller="http://playerstage.sourceforge.net/gazebo/xmlschema/#controller">
-      <link name="screen"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
-      <visual><geometry><box size="0.1 0.05 0.001"/></geometry></visual>
-      <collision><geometry><box size="0.1 0.05 0.001"/></geometry></collision></link>
-      <gazebo reference="screen"><turnGravityOff>true</turnGravityOff></gazebo>%s</robot>''' % (syntax % params))
-
-
-@pytest.mark.parametrize('syntax', [CLASSIC, Y2011], ids=['classic', '2011'])
+@pytest.mark.parametrize('syntax', ['classic', '2011'])
 def test_both_syntaxes(syntax):
-    w = World(physics='ode', seed=1)
-    try:
-        w.add_model(small_robot('<bodyName>screen</bodyName><displayWidth>100</displayWidth>'
-                                '<displayHeight>200</displayHeight>', syntax))
+    with worlds.opened('ode', 1) as w:
+        w.add_model(worlds.sensor_robot(
+            'libgazebo_ros_touch.so', '<bodyName>screen</bodyName><displayWidth>100</displayWidth>'
+            '<displayHeight>200</displayHeight>', syntax=syntax, plugin='t', body=None,
+            link='screen', box=(0.1, 0.05, 0.001), visual=True))
         t = touch_of(w, 'r')
         assert t.size == (100, 200) and t.body == 'screen'
         t.inject_touch(50, 100, 0.01)
         w.step(30)
         assert [e[1] for e in t.events] == [DOWN, UP]
-    finally:
-        w.shutdown()
-
-
-@pytest.mark.parametrize('params, words', [
-    ('<pressureStages>0</pressureStages>', 'pressureStages must be'),
-    ('<pressureDepth>-1</pressureDepth>', 'pressureDepth must be a number > 0'),
-    ('<buttons>power</buttons>', 'buttons must be name:link pairs'),
-    ('<buttons>power:ghost</buttons>', "'ghost' is not a link"),
-    ('<face>side</face>', 'face must be one of front, back'),
-])
-def test_bad_params_one_line(caplog, params, words):
-    w = World(physics='ode', seed=1)
-    try:
-        w.add_model(small_robot('<bodyName>screen</bodyName>' + params))
-        assert len(w.plugins['r']) == 1
-        lines = [r.getMessage() for r in caplog.records if r.levelname == 'ERROR']
-        assert len(lines) == 1, lines
-        assert words in lines[0] and 'libgazebo_ros_touch.so' in lines[0] and ' r' in lines[0]
-        t = touch_of(w, 'r')
-        t.inject_touch(10, 10, 0.01)
-        w.step(30)
-        assert [e[1] for e in t.events] == [DOWN, UP]
-    finally:
-        w.shutdown()

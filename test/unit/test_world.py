@@ -8,7 +8,8 @@ from sim_world import plugins
 from sim_world.model import ModelError
 from sim_world.transforms import InvalidPose, Pose
 from sim_world.urdf import parse_urdf
-from sim_world.world import World
+
+import worlds
 
 CALLS = []
 
@@ -38,11 +39,7 @@ def box_robot(name='r', plugin_xml='', gravity=True):
       <origin xyz="0.5 0 0"/></joint>%s%s</robot>''' % (name, g, plugin_xml))
 
 
-@pytest.fixture(params=['ode', 'bullet'])
-def world(request):
-    w = World(physics=request.param, step_size=0.001)
-    yield w
-    w.shutdown()
+world = worlds.world_fixture(seed=None, step_size=0.001)
 
 
 def test_plugin_rate_follows_sim_time(world):

@@ -12,6 +12,8 @@ import time
 
 import pytest
 
+from fixtures.scenario_cli import scenario_env
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 NODE = os.path.join(ROOT, 'testing_instance', 'nodes', 'run_scenario')
@@ -21,12 +23,7 @@ ray = pytest.importorskip('ray', reason='Ray is installed by tools/setup')
 pytestmark = pytest.mark.rostest
 
 
-def env():
-    e = dict(os.environ)
-    e.pop('ROS_MASTER_URI', None)
-    e.pop('RAY_ADDRESS', None)
-    e.setdefault('ROS_HOSTNAME', 'localhost')
-    return e
+env = scenario_env
 
 
 def sweep_cmd(out, *extra):

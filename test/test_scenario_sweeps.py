@@ -12,6 +12,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from fixtures.scenario_cli import scenario_env
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 EX = os.path.join(ROOT, 'testing_instance', 'examples')
@@ -22,11 +24,7 @@ SUBSET = 'not 5] and not 20]'           # declination 0 and 10
 pytestmark = pytest.mark.rostest
 
 
-def env():
-    e = dict(os.environ)
-    e.pop('ROS_MASTER_URI', None)
-    e.setdefault('ROS_HOSTNAME', 'localhost')
-    return e
+env = scenario_env
 
 
 def pytest_run(*args):

@@ -13,10 +13,11 @@ import glob
 import os
 import re
 import subprocess
-import sys
 import time
 
 import pytest
+
+from fixtures.scenario_cli import run_scenario
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -28,12 +29,7 @@ pytestmark = pytest.mark.rostest
 
 
 def run(*args, timeout=TIMEOUT):
-    env = dict(os.environ)
-    env.pop('ROS_MASTER_URI', None)
-    env.setdefault('ROS_HOSTNAME', 'localhost')
-    p = subprocess.run([sys.executable, NODE] + [str(a) for a in args], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True, timeout=timeout, env=env)
-    return p.returncode, p.stdout
+    return run_scenario(*args, timeout=timeout)
 
 
 def verdicts(text, prefix=''):

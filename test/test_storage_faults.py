@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from fixtures.scenario_cli import scenario_env
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 NODE = os.path.join(ROOT, 'testing_instance', 'nodes', 'run_scenario')
@@ -31,11 +33,7 @@ expect:
 """
 
 
-def env():
-    e = dict(os.environ)
-    e.pop('ROS_MASTER_URI', None)
-    e.setdefault('ROS_HOSTNAME', 'localhost')
-    return e
+env = scenario_env
 
 
 @pytest.fixture

@@ -3,6 +3,8 @@ runs give the same verdicts through `pytest` (serially and with `-n 2`, each xdi
 with its own master ports) as through `run_scenario --sweep`; the FAIL lines and the
 reproduce command are in pytest's report and JUnit; -x stops after the first failure.
 A small subset (compass_declination at 0 and 10 degrees: one pass, one fail) keeps it short.
+Also: plain scenario files through `pytest -n 2` agree with a `--jobs 2` farm, and a sweep in
+which one run's world dies reports that run as an ERROR and finishes the others.
 """
 import json
 import os
@@ -87,3 +89,47 @@ def test_pytest_serial_and_xdist_agree_with_run_scenario(tmp_path):
     rc, out = pytest_run(DECL, '-k', '5] or 20]', '-x')
     assert rc == 1 and '1 failed' in out and 'passed' not in out.splitlines()[-1], out
     assert 'stopping after 1 failures' in out, out
+
+
+def test_plain_scenario_files_through_pytest_agree_with_the_farm(tmp_path):
+    """Scenario files without a sweep are pytest items too: `pytest -n 2 FILES` gives the
+    statuses of `run_scenario --jobs 2 FILES`, with the FAIL line in the report."""
+    files = [os.path.join(EX, f) for f in ('compass.yaml', 'compass_fails.yaml')]
+    p = subprocess.run([sys.executable, NODE] + files + ['--jobs', '2', '--junit',
+                                                         str(tmp_path / 'farm')],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=600, env=env())
+    assert p.returncode == 1, p.stdout
+    farm = {}
+    for f in os.listdir(tmp_path / 'farm'):
+        root = ET.parse(str(tmp_path / 'farm' / f)).getroot()
+        bad = int(root.get('failures', 0)) + int(root.get('errors', 0))
+        farm[os.path.splitext(f)[0]] = 'FAIL' if bad else 'PASS'
+    assert farm == {'compass': 'PASS', 'compass_fails': 'FAIL'}, p.stdout
+    rc, out = pytest_run(*files, '-n', '2', '--junitxml', tmp_path / 'py.xml')
+    assert rc == 1, out
+    got = {k: v[0] for k, v in junit_cases(tmp_path / 'py.xml').items()}
+    assert got == farm, out
+    assert 'FAIL ' in junit_cases(tmp_path / 'py.xml')['compass_fails'][2].find(
+        'failure').text
+
+
+def test_a_sweep_whose_world_dies_in_one_run_goes_on(tmp_path):
+    """One concrete run's world dies: that run is an ERROR row with the world's last words,
+    the other runs finish, the summary counts it and the exit code is 2."""
+    dying = os.path.join(HERE, 'rostest', 'scenario_dying_world.launch')
+    f = tmp_path / 'mixed.yaml'
+    f.write_text('name: mixed\nparameters: {launch: office}\n'
+                 'sweep: {launch: [office, %s]}\n'
+                 'duration: 2\nworld: {launch: "${launch}", args: {camera_rate: 1}}\n'
+                 'expect:\n  - {name: imu, topic: /mobile_device/imu_sensor_data, '
+                 'rate: {gt: 50}}\n' % dying)
+    p = subprocess.run([sys.executable, NODE, str(f), '--sweep', '--jobs', '2', '--json',
+                        str(tmp_path / 's.json')], stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, timeout=600, env=env())
+    assert p.returncode == 2, p.stdout
+    runs = json.loads((tmp_path / 's.json').read_text())['runs']
+    status = {r['values']['launch']: r['status'] for r in runs}
+    assert status == {'office': 'PASS', dying: 'ERROR'}, p.stdout
+    assert '2 runs: 1 passed, 0 failed, 1 errors' in p.stdout
+    assert 'the world died at sim time' in p.stdout, p.stdout

@@ -296,3 +296,37 @@ def test_regression_a_status_message_is_one_line_whatever_the_names(world):
                                          'reference="nope"><static>true</static></gazebo>')
     ok, msg = check_spawn(world, 'urdf', xml)
     assert not ok and '\\n' in msg and '\n' not in msg, msg
+
+
+def test_regression_a_plugin_that_fails_to_load_refuses_the_model_and_leaves_nothing(world):
+    # found through the services (test_fuzz_spawn_ros.py): a second phone in the namespace
+    # of the first made its plugins' rospy.Service raise 'service [/mobile_device/...]
+    # already registered' out of the spawn handler (an error instead of an answer) and left
+    # the model half added. A plugin's unexpected error now refuses the model, unloading the
+    # plugins already loaded.
+    from sim_world import plugins
+
+    events = []
+
+    @plugins.register('libfuzz_ok_plugin.so')
+    class Ok(plugins.Plugin):
+        def shutdown(self):
+            events.append('ok shut down')
+
+    @plugins.register('libfuzz_clash_plugin.so')
+    class Clash(plugins.Plugin):
+        def load(self):
+            events.append('clash registered something')
+            raise RuntimeError('service [/x/set_device_time] already registered')
+
+        def shutdown(self):
+            events.append('clash shut down')
+
+    xml = _box_robot().replace('</robot>', '<gazebo><plugin name="a" filename='
+                               '"libfuzz_ok_plugin.so"/><plugin name="b" filename='
+                               '"libfuzz_clash_plugin.so"/></gazebo></robot>')
+    ok, msg = check_spawn(world, 'urdf', xml, name='clash')
+    assert not ok and "plugin libfuzz_clash_plugin.so of model 'clash' cannot be loaded: " \
+        "RuntimeError: service [/x/set_device_time] already registered" in msg, msg
+    assert events == ['clash registered something', 'clash shut down', 'ok shut down']
+    assert 'clash' not in world.plugins

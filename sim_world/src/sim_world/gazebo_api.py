@@ -29,7 +29,7 @@ from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelSta
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
-from . import fastpub
+from . import fastpub, tcpros_guard
 from .model import ModelError
 from .spawn import spawn_xml
 from .transforms import InvalidPose, Pose
@@ -71,6 +71,9 @@ def _transform(parent, child, pose, stamp):
 
 class GazeboRosApi(object):
     def __init__(self, world, paused=False):
+        # a client that connects and sends no header must not stall this node's other
+        # connections (rospy reads headers in its accept loop; sim_world.tcpros_guard)
+        tcpros_guard.install()
         self.world = world
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing

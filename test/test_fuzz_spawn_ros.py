@@ -21,8 +21,9 @@ N = int(os.environ.get('MDS_FUZZ_SPAWN_ROS', '60'))
 pytestmark = pytest.mark.rostest
 
 
-def run_client(env, n, seed=None, timeout=600):
-    p = subprocess.run([sys.executable, CLIENT, str(n)] + ([str(seed)] if seed else []),
+def run_client(env, n, seed=0, baseline=0, timeout=900):
+    """The client's stats (seed 0: derandomized)."""
+    p = subprocess.run([sys.executable, CLIENT, str(n), str(seed), str(baseline)],
                        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                        timeout=timeout)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith('{')]

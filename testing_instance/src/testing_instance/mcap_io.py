@@ -26,6 +26,12 @@ class RecordingError(Exception):
     """The recording cannot be read (missing, not a recording, truncated)."""
 
 
+def _why(e):
+    """An exception's text on one line ('cut short' when it has none: mcap's EndOfFile)."""
+    text = ' '.join(str(e).split())
+    return text or 'cut short'
+
+
 def is_mcap_path(path):
     return str(path).lower().endswith('.mcap')
 
@@ -196,7 +202,7 @@ class _McapReader(object):
                 if n:
                     raise
                 self.damage = ('the index of the MCAP file %s cannot be read (%s: %s): it is '
-                               'read from its start' % (self.path, type(e).__name__, e))
+                               'read from its start' % (self.path, type(e).__name__, _why(e)))
             self.f.seek(0)
             for item in self._decoded(NonSeekingReader(self.f).iter_messages(
                     topics=topics, log_time_order=False), raw):
@@ -206,10 +212,10 @@ class _McapReader(object):
         except (McapError, EOFError, ValueError, OSError, KeyError, AssertionError,
                 io.UnsupportedOperation) as e:
             raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
-                                 '%s' % (self.path, type(e).__name__, e))
+                                 '%s' % (self.path, type(e).__name__, _why(e)))
         except Exception as e:  # noqa: BLE001 - anything else a damaged file raises
             raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
-                                 '%s' % (self.path, type(e).__name__, e))
+                                 '%s' % (self.path, type(e).__name__, _why(e)))
 
     def _decoded(self, records, raw):
         import rospy

@@ -88,7 +88,8 @@ def load_recording(path):
             break
     if meta is None:
         if damage:
-            raise RecordingError(damage)
+            raise RecordingError('%s; nothing read before the damage can be replayed (no %s '
+                                 'message)' % (damage, META_TOPIC))
         raise RecordingError('%s is not a run_scenario recording (no %s message)'
                              % (path, META_TOPIC))
     inputs = set(meta['inputs'])

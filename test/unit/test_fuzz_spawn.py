@@ -49,7 +49,11 @@ def sources():
         out.append(('urdf', f, process_xacro(os.path.join(URDF, f))))
     for w in WORLDS:
         root = ET.parse(w).getroot()
-        for m in root.iter('model'):
+        for el in root.iter():     # a spawned SDF model resolves files against sim_world's
+            if el.tag in ('texture', 'albedo_map', 'uri') and el.text and \
+                    not el.text.startswith(('/', 'model://', 'file://', 'package://')):
+                el.text = os.path.join(os.path.dirname(w), el.text.strip())   # cwd: make
+        for m in root.iter('model'):                                          # them absolute
             out.append(('sdf', '%s:%s' % (os.path.basename(w), m.get('name')),
                         '<sdf version="1.6">%s</sdf>' % ET.tostring(m, encoding='unicode')))
     return out

@@ -6,7 +6,8 @@ Inputs: the phone's URDF (both syntaxes, thesis appendix A and Gazebo classic), 
 and every model of the example worlds as standalone SDF, mutated: numbers replaced by wrong
 types, huge or tiny numbers, NaN/inf, negative or zero masses and inertias; links and joints
 removed, duplicated or renamed; unknown elements, deep nesting, unicode; broken XML (cut,
-bytes flipped). The world files themselves go through ``parse_world`` the same way.
+bytes flipped). The world files themselves go through ``parse_world`` the same way, and the
+xacro sources through ``load_urdf_file`` (xacro, then the URDF parser).
 
 Every request is answered (success, or ``SpawnModel: ...`` naming the problem, never an
 internal error); a rejected model leaves nothing behind; after every request the world
@@ -334,3 +335,29 @@ def test_regression_a_plugin_that_fails_to_load_refuses_the_model_and_leaves_not
         "RuntimeError: service [/x/set_device_time] already registered" in msg, msg
     assert events == ['clash registered something', 'clash shut down', 'ok shut down']
     assert 'clash' not in world.plugins
+
+
+XACROS = sorted(glob.glob(os.path.join(URDF, '*.xacro')))
+
+
+@settings(**dict(_FUZZ, max_examples=max(1, _FUZZ['max_examples'] // 3)))
+@given(data=st.data())
+def test_fuzzed_xacro_sources_load_or_are_one_model_error(tmp_path_factory, data):
+    """The xacro sources mutated the same way (a spawn_model -file or a scenario's
+    spawn_model action expands them first): sim_world.urdf.load_urdf_file gives a model or
+    one ModelError, never another exception (xacro's own errors, SystemExit included)."""
+    from sim_world.urdf import load_urdf_file
+    src = data.draw(st.sampled_from(XACROS))
+    text = open(src).read()
+    for prefix, uri in re.findall(r'xmlns:(\w+)="([^"]+)"', text):
+        ET.register_namespace(prefix, uri)     # ElementTree keeps xacro:, sensor: ...
+    for _ in range(data.draw(st.integers(1, 2))):
+        text = mutate_tree(text, data.draw) if data.draw(st.integers(0, 4)) else \
+            mutate_bytes(text, data.draw)
+    path = os.path.join(str(tmp_path_factory.getbasetemp()), 'fuzzed.urdf.xacro')
+    with open(path, 'w', encoding='utf-8', errors='surrogatepass') as f:
+        f.write(text)
+    try:
+        load_urdf_file(path)
+    except ModelError as e:
+        assert str(e).strip(), e

@@ -29,11 +29,10 @@ from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelSta
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
-from . import fastpub
+from . import fastpub, tcpros_guard
 from .model import ModelError
-from .sdf import parse_sdf_model
+from .spawn import spawn_xml
 from .transforms import InvalidPose, Pose
-from .urdf import parse_urdf
 
 __all__ = ['GazeboRosApi', 'run_loop', 'tf_frame']
 
@@ -72,6 +71,9 @@ def _transform(parent, child, pose, stamp):
 
 class GazeboRosApi(object):
     def __init__(self, world, paused=False):
+        # a client that connects and sends no header must not stall this node's other
+        # connections (rospy reads headers in its accept loop; sim_world.tcpros_guard)
+        tcpros_guard.install()
         self.world = world
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
@@ -158,52 +160,23 @@ class GazeboRosApi(object):
         if not ok:
             rospy.logwarn(msg)
 
-    def _spawn(self, req, parse, kind):
-        name = req.model_name
-        if not name:
-            return SpawnModelResponse(False, 'SpawnModel: model_name is empty')
-        try:
-            initial = Pose.from_msg(req.initial_pose)
-        except InvalidPose as e:
-            return self._spawn_fail('SpawnModel: model %r: bad initial_pose: %s' % (name, e))
-        with self.world.lock:
-            if name in self.world.models:
-                return self._spawn_fail('SpawnModel: a model named %r already exists' % name)
-            try:
-                model = parse(req)
-                if req.reference_frame not in ('', 'world', 'map', '/world', '/map'):
-                    frame, _, _ = self.world.entity_state(req.reference_frame)
-                    initial = frame * initial
-                model.pose = initial * model.pose if kind == 'sdf' else initial
-                self.world.add_model(model)
-            except (ModelError, InvalidPose) as e:
-                return self._spawn_fail('SpawnModel: model %r not spawned: %s' % (name, e))
-            except KeyError as e:
-                return self._spawn_fail('SpawnModel: model %r not spawned: reference_frame: %s'
-                                        % (name, e.args[0]))
-        rospy.loginfo('spawned model %s (%d links, %d plugins)', name, len(model.links),
-                      len(model.plugins))
-        return SpawnModelResponse(True, 'SpawnModel: Successfully spawned entity')
-
-    def _spawn_fail(self, msg):
-        rospy.logerr(msg)
-        return SpawnModelResponse(False, msg)
+    def _spawn(self, req, kind):
+        ok, msg = spawn_xml(self.world, kind, req.model_name, req.model_xml,
+                            req.robot_namespace, req.initial_pose, req.reference_frame)
+        if not ok:
+            rospy.logerr(msg)
+            return SpawnModelResponse(False, msg)
+        model = self.world.models.get(req.model_name)
+        if model is not None:
+            rospy.loginfo('spawned model %s (%d links, %d plugins)', model.name,
+                          len(model.links), len(model.plugins))
+        return SpawnModelResponse(True, msg)
 
     def spawn_urdf_model(self, req):
-        def parse(r):
-            m = parse_urdf(r.model_xml, name=r.model_name,
-                           robot_namespace=r.robot_namespace.strip('/'))
-            m.tf_prefix = r.robot_namespace.strip('/')
-            return m
-        return self._spawn(req, parse, 'urdf')
+        return self._spawn(req, 'urdf')
 
     def spawn_sdf_model(self, req):
-        def parse(r):
-            m = parse_sdf_model(r.model_xml)
-            m.name = r.model_name
-            m.robot_namespace = r.robot_namespace.strip('/')
-            return m
-        return self._spawn(req, parse, 'sdf')
+        return self._spawn(req, 'sdf')
 
     def delete_model(self, req):
         try:

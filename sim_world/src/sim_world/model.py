@@ -12,13 +12,33 @@ import numpy as np
 
 from .transforms import Pose
 
-__all__ = ['ModelError', 'parse_floats', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
+__all__ = ['ModelError', 'parse_floats', 'check_position', 'MAX_MASS', 'MIN_MASS', 'MAX_INERTIA',
+           'MAX_SIZE', 'MAX_POSITION', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
            'Joint', 'PluginSpec', 'Light', 'Model', 'cuboid_inertia', 'cylinder_inertia',
            'sphere_inertia']
 
 
 class ModelError(ValueError):
     """A model description that cannot be loaded; the message names the problem."""
+
+
+# Bounds of what a model may declare, checked when it is parsed: beyond them ODE aborts the
+# process (dxNormalize4 assertion) or Bullet's state turns NaN as soon as the body touches
+# something (found by test/unit/test_fuzz_spawn.py: mass and inertia 1e300), or the body
+# falls through the ground (a box of 1e30 m, a centre of mass 1e300 m off its link). They are
+# far beyond any phone, room or building.
+MIN_MASS = 1e-6          # kg (1 mg)
+MAX_MASS = 1e6           # kg (1000 t)
+MAX_INERTIA = 1e6        # kg m^2, every entry of a link's inertia tensor
+MAX_SIZE = 1e4           # m: box edges, radii, lengths, plane sizes; |mesh scale|
+MAX_POSITION = 1e6       # m: every offset of a model's parts, and a model's place in the world
+
+
+def check_position(xyz, what):
+    """ModelError unless every coordinate is within +-MAX_POSITION m."""
+    if np.any(np.abs(np.asarray(xyz, dtype=float)) > MAX_POSITION):
+        raise ModelError('%s: position %s is farther than %g m from its frame'
+                         % (what, [float('%g' % v) for v in xyz], MAX_POSITION))
 
 
 def parse_floats(text, n, what):
@@ -57,6 +77,12 @@ class Geometry(object):
         vals = list(self.size) + [self.radius, self.length] + list(self.scale)
         if not all(np.isfinite(vals)):
             raise ModelError('%s geometry has a non-finite dimension' % self.kind)
+        if max(abs(v) for v in vals) > MAX_SIZE:
+            raise ModelError('%s geometry has a dimension of %g m, larger than %g m'
+                             % (self.kind, max(abs(v) for v in vals), MAX_SIZE))
+        if self.kind == 'mesh' and (self.scale.shape != (3,) or np.any(self.scale == 0)):
+            raise ModelError('mesh scale must be three non-zero numbers, got %s'
+                             % list(self.scale))
         if self.kind == 'box' and (self.size.shape != (3,) or np.any(self.size <= 0)):
             raise ModelError('box size must be three positive numbers, got %s' % list(self.size))
         if self.kind in ('sphere', 'cylinder') and self.radius <= 0:
@@ -129,8 +155,15 @@ class Inertial(object):
         self.inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], float)
         if not (np.isfinite(self.mass) and self.mass > 0):
             raise ModelError('inertial mass must be positive, got %r' % mass)
+        if not MIN_MASS <= self.mass <= MAX_MASS:
+            raise ModelError('inertial mass %g kg is outside [%g, %g] kg'
+                             % (self.mass, MIN_MASS, MAX_MASS))
         if not np.all(np.isfinite(self.inertia)):
             raise ModelError('inertia has a non-finite entry')
+        if np.any(np.abs(self.inertia) > MAX_INERTIA):
+            raise ModelError('inertia has an entry larger than %g kg m^2: %s'
+                             % (MAX_INERTIA, [float('%g' % v) for v in
+                                              self.inertia[np.triu_indices(3)]]))
 
 
 def cuboid_inertia(mass, sx, sy, sz):

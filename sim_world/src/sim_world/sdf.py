@@ -40,7 +40,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .model import (Collision, Geometry, Inertial, Joint, Light, Link, Material, Model,
-                    ModelError, PluginSpec, Visual, _local, parse_floats)
+                    ModelError, PluginSpec, Visual, _local, check_position, parse_floats)
 from .transforms import InvalidPose, Pose
 
 __all__ = ['WorldDescription', 'load_world_file', 'parse_world', 'parse_sdf_model',
@@ -76,6 +76,7 @@ def _pose(el, what):
     if c is None or not (c.text or '').strip():
         return Pose()
     v = _vec(c.text, 6, what + ' <pose>')
+    check_position(v[:3], what + ' <pose>')
     try:
         return Pose.from_xyz_rpy(v[:3], v[3:])
     except InvalidPose as e:

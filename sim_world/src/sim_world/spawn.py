@@ -11,7 +11,66 @@ one line saying why otherwise.
 import argparse
 import sys
 
-__all__ = ['parse_args', 'main']
+__all__ = ['parse_args', 'main', 'spawn_xml', 'one_line']
+
+
+def one_line(text):
+    """``text`` with every unprintable character (newlines in a name...) escaped: a status
+    message and its log line stay one line whatever the request held."""
+    return ''.join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def spawn_xml(world, kind, name, xml, robot_namespace='', initial_pose=None,
+              reference_frame=''):
+    """What /gazebo/spawn_urdf_model (kind 'urdf') and /gazebo/spawn_sdf_model ('sdf') do
+    with a request: parse ``xml``, place the model at ``initial_pose`` (a
+    sim_world.transforms.Pose, or a geometry_msgs/Pose) in ``reference_frame`` and add it to
+    ``world``. Returns ``(success, status_message)``; a bad request is ``False`` with a
+    message naming what is wrong, and leaves nothing of the model in the world."""
+    ok, msg = _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose,
+                         reference_frame)
+    return ok, one_line(msg)
+
+
+def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_frame):
+    from .model import ModelError
+    from .sdf import parse_sdf_model
+    from .transforms import InvalidPose, Pose
+    from .urdf import parse_urdf
+    if not name:
+        return False, 'SpawnModel: model_name is empty'
+    try:
+        if initial_pose is None:
+            initial = Pose()
+        elif isinstance(initial_pose, Pose):
+            initial = initial_pose
+        else:
+            initial = Pose.from_msg(initial_pose)
+    except InvalidPose as e:
+        return False, 'SpawnModel: model %r: bad initial_pose: %s' % (name, e)
+    namespace = (robot_namespace or '').strip('/')
+    with world.lock:
+        if name in world.models:
+            return False, 'SpawnModel: a model named %r already exists' % name
+        try:
+            if kind == 'sdf':
+                model = parse_sdf_model(xml)
+                model.name = name
+                model.robot_namespace = namespace
+            else:
+                model = parse_urdf(xml, name=name, robot_namespace=namespace)
+                model.tf_prefix = namespace
+            if reference_frame not in ('', 'world', 'map', '/world', '/map'):
+                frame, _, _ = world.entity_state(reference_frame)
+                initial = frame * initial
+            model.pose = initial * model.pose if kind == 'sdf' else initial
+            world.add_model(model)
+        except (ModelError, InvalidPose) as e:
+            return False, 'SpawnModel: model %r not spawned: %s' % (name, e)
+        except KeyError as e:
+            return False, 'SpawnModel: model %r not spawned: reference_frame: %s' % (
+                name, e.args[0])
+    return True, 'SpawnModel: Successfully spawned entity'
 
 
 def parse_args(argv):

@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from .model import (Collision, Geometry, Inertial, Joint, Link, Material, Model, ModelError,
-                    PluginSpec, Visual, _local, parse_floats)
+                    PluginSpec, Visual, _local, check_position, parse_floats)
 from .transforms import InvalidPose, Pose
 
 __all__ = ['load_urdf_file', 'parse_urdf', 'process_xacro', 'parse_pose_attrs']
@@ -81,6 +81,7 @@ def parse_pose_attrs(el, what):
     if el is None:
         return Pose()
     xyz = _floats(el.get('xyz', '0 0 0'), 3, what + ' origin xyz')
+    check_position(xyz, what + ' origin xyz')
     rpy = _floats(el.get('rpy', '0 0 0'), 3, what + ' origin rpy')
     try:
         return Pose.from_xyz_rpy(xyz, rpy)

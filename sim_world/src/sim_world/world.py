@@ -150,11 +150,15 @@ class World(object):
                 except Exception as e:  # noqa: BLE001 - a bad mesh must not take the world down
                     self.log.error('model %s: cannot draw it: %s', model.name, e)
             self.plugins[model.name] = []
-            for spec in model.plugins:
-                p = plugin_registry.create(spec, model, self, logger=self.log)
-                if p is not None:
-                    p.timer.reset(self.sim_time)
-                    self.plugins[model.name].append(p)
+            try:
+                for spec in model.plugins:
+                    p = plugin_registry.create(spec, model, self, logger=self.log)
+                    if p is not None:
+                        p.timer.reset(self.sim_time)
+                        self.plugins[model.name].append(p)
+            except ModelError:
+                self.delete_model(model.name)   # its loaded plugins, body and drawing
+                raise
             self.reschedule()
             for cb in self.on_model_added:
                 cb(model)

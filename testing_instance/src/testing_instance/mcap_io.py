@@ -27,6 +27,12 @@ class RecordingError(Exception):
     """The recording cannot be read (missing, not a recording, truncated)."""
 
 
+def _why(e):
+    """An exception's text on one line ('cut short' when it has none: mcap's EndOfFile)."""
+    text = ' '.join(str(e).split())
+    return text or 'cut short'
+
+
 def is_mcap_path(path):
     return str(path).lower().endswith('.mcap')
 
@@ -278,11 +284,38 @@ def _kind(path):
 class _BagReader(object):
     def __init__(self, path):
         import rosbag
+        self.path = path
+        self.damage = None      # what is wrong with a file read only up to its damage
         try:
             self.bag = rosbag.Bag(path)
+        except rosbag.ROSBagUnindexedException:
+            self.bag = self._reindexed(path)
         except Exception as e:  # noqa: BLE001 - rosbag raises several kinds
             raise RecordingError('cannot read the rosbag %s: %s' % (path, e))
-        self.path = path
+
+    def _reindexed(self, path):
+        """A bag without its index (cut short, or never closed): its complete chunks, as
+        `rosbag reindex` finds them, indexed in memory (the file stays as it is)."""
+        import rosbag
+        class _Memory(io.BytesIO):
+            mode = 'r+b'         # rosbag checks that its file is binary
+
+            def close(self):     # rosbag closes it when it has written the index
+                pass
+        try:
+            with open(path, 'rb') as f:
+                mem = _Memory(f.read())
+            bag = rosbag.Bag(mem, 'a', allow_unindexed=True)   # as `rosbag reindex` does
+            for _pos in bag.reindex():
+                pass
+            bag.close()
+            bag = rosbag.Bag(_Memory(mem.getvalue()), 'r')
+        except Exception as e:  # noqa: BLE001
+            raise RecordingError('cannot read the rosbag %s: it has no index (cut short?) '
+                                 'and reindexing failed: %s' % (path, e))
+        self.damage = ('the rosbag %s has no index (cut short, or not closed): only its '
+                       'complete chunks are read' % path)
+        return bag
 
     def read_messages(self, topics=None, raw=False):
         try:
@@ -300,6 +333,7 @@ class _McapReader(object):
         self.path = path
         self.f = open(path, 'rb')
         self.classes = {}
+        self.damage = None      # what is wrong with a file read only up to its damage
 
     def _class(self, schema, channel):
         key = schema.id
@@ -320,33 +354,54 @@ class _McapReader(object):
         return self.classes[key]
 
     def read_messages(self, topics=None, raw=False):
-        import rospy
-        from mcap.reader import make_reader
+        """In log time order (the summary's index); a file whose summary cannot be read
+        (cut short) is read from its start in file order up to its damage
+        (``self.damage`` says what is wrong), then RecordingError."""
+        from mcap.reader import NonSeekingReader, make_reader
         from mcap.exceptions import McapError
         self.f.seek(0)
+        n = 0
         try:
-            reader = make_reader(self.f)
-            for schema, channel, m in reader.iter_messages(topics=topics,
-                                                           log_time_order=True):
-                t = rospy.Time(m.log_time // 10 ** 9, m.log_time % 10 ** 9)
-                if raw:
-                    yield channel.topic, bytes(m.data), t
-                    continue
-                if schema is None or channel.message_encoding != 'ros1':
-                    raise RecordingError('%s: channel %s is not ROS 1 encoded (%s)' % (
-                        self.path, channel.topic, channel.message_encoding))
-                msg = self._class(schema, channel)()
-                msg.deserialize(m.data)
-                yield channel.topic, msg, t
+            try:
+                for item in self._decoded(make_reader(self.f).iter_messages(
+                        topics=topics, log_time_order=True), raw):
+                    n += 1
+                    yield item
+                return
+            except RecordingError:
+                raise
+            except Exception as e:  # noqa: BLE001 - no summary: stream from the start
+                if n:
+                    raise
+                self.damage = ('the index of the MCAP file %s cannot be read (%s: %s): it is '
+                               'read from its start' % (self.path, type(e).__name__, _why(e)))
+            self.f.seek(0)
+            for item in self._decoded(NonSeekingReader(self.f).iter_messages(
+                    topics=topics, log_time_order=False), raw):
+                yield item
         except RecordingError:
             raise
         except (McapError, EOFError, ValueError, OSError, KeyError, AssertionError,
                 io.UnsupportedOperation) as e:
             raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
-                                 '%s' % (self.path, type(e).__name__, e))
+                                 '%s' % (self.path, type(e).__name__, _why(e)))
         except Exception as e:  # noqa: BLE001 - anything else a damaged file raises
             raise RecordingError('cannot read the MCAP file %s (truncated or damaged?): %s: '
-                                 '%s' % (self.path, type(e).__name__, e))
+                                 '%s' % (self.path, type(e).__name__, _why(e)))
+
+    def _decoded(self, records, raw):
+        import rospy
+        for schema, channel, m in records:
+            t = rospy.Time(m.log_time // 10 ** 9, m.log_time % 10 ** 9)
+            if raw:
+                yield channel.topic, bytes(m.data), t
+                continue
+            if schema is None or channel.message_encoding != 'ros1':
+                raise RecordingError('%s: channel %s is not ROS 1 encoded (%s)' % (
+                    self.path, channel.topic, channel.message_encoding))
+            msg = self._class(schema, channel)()
+            msg.deserialize(m.data)
+            yield channel.topic, msg, t
 
     def close(self):
         self.f.close()

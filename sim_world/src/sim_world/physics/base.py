@@ -72,7 +72,7 @@ import math
 import numpy as np
 
 from .. import mesh as _mesh
-from ..model import Model, ModelError
+from ..model import MAX_POSITION, Model, ModelError
 from ..transforms import InvalidPose, Pose, matrix_to_quat
 
 __all__ = ['PhysicsEngine', 'BodySpec', 'Contact', 'lump_model', 'load_mesh', 'mesh_boxes',
@@ -92,6 +92,10 @@ def check_pose(pose, what):
     q = np.asarray(pose.q, dtype=float)
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise InvalidPose('%s: position %s is not three finite numbers' % (what, list(p)))
+    if np.any(np.abs(p) > MAX_POSITION):
+        raise InvalidPose('%s: position %s is farther than %g m from the origin (the '
+                          'physics engines lose all precision there)'
+                          % (what, [float('%g' % v) for v in p], MAX_POSITION))
     if q.shape != (4,) or not np.all(np.isfinite(q)):
         raise InvalidPose('%s: quaternion %s is not four finite numbers' % (what, list(q)))
     n = float(np.linalg.norm(q))

@@ -293,10 +293,29 @@ def create(spec, model, world, logger=None):
                                'without it' % (spec.filename, model.name),
                                key=spec.filename, logger=logger)
         return None
-    plugin = cls(spec, model, world)
+    plugin = None
     try:
+        plugin = cls(spec, model, world)
         plugin.load()
     except PluginError as e:
         logger.error('plugin %s of model %s not loaded: %s', spec.filename, model.name, e)
+        _quiet_shutdown(plugin)
         return None
+    except Exception as e:  # noqa: BLE001 - e.g. a ROS name of another model's (a second
+        # phone in the same namespace: 'service [/ns/x] already registered'): the model
+        # cannot run as described; the world refuses it and stays as it was
+        _quiet_shutdown(plugin)
+        from ..model import ModelError
+        raise ModelError('plugin %s of model %r cannot be loaded: %s: %s'
+                         % (spec.filename, model.name, type(e).__name__, e))
     return plugin
+
+
+def _quiet_shutdown(plugin):
+    """Undo what a plugin that failed in load() registered (best effort)."""
+    if plugin is None:
+        return
+    try:
+        plugin.shutdown()
+    except Exception:  # noqa: BLE001 - half-loaded: nothing more to undo
+        pass

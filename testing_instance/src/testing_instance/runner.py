@@ -862,8 +862,14 @@ class Runner(Actions):
         self._bag_write(META_TOPIC, String(json.dumps(meta, sort_keys=True)), self.t)
 
     def _shutdown(self):
+        # with the world or the master gone (roslaunch takes the master down with its
+        # required world) each unregister would print 'unable to communicate with ROS
+        # Master' once per topic; rospy's own clean-up at exit is one quiet call
+        gone = any(not procs.alive(pid) for pid in self.watch.values()) or (
+            self.world_proc is not None and not self.world_proc.alive())
         for s in self.subs.values():
-            s.unregister()
+            if not gone:
+                s.unregister()
         with self.bag_lock:
             if self.bag is not None:     # storage faults: one line each, the run goes on
                 self.storage_problems = self.bag.close()

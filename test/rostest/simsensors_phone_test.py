@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """rostest: the phone's proximity, ambient light, touch/buttons and battery topics with a
 real roscore (simsensors_phone.test)."""
+import time
 import unittest
 
 import rospy
@@ -91,6 +92,11 @@ class PhoneSensors(unittest.TestCase):
 
     def test_charger(self):
         pub = rospy.Publisher(NS + 'charger', Bool, queue_size=1, latch=True)
+        # the world's subscription first: on a loaded machine it took longer than the 1.5 s
+        # of sim time below (the world runs at real time here)
+        deadline = time.time() + 60.0
+        while pub.get_num_connections() < 1 and time.time() < deadline:
+            time.sleep(0.05)
         pub.publish(Bool(True))
         sim_sleep(1.5)
         self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 1)

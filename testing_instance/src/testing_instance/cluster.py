@@ -101,6 +101,13 @@ def _execute(cmd_tail, want_junit, want_bag, ledger, run_id, want_report=False):
             ray.get(ledger.start.remote(run_id, node), timeout=30)
         except Exception:   # noqa: BLE001 - the ledger only counts attempts
             pass
+    attempt = None           # Ray's own count (0: the first); kept by the task itself, so
+    try:                     # it survives a ledger that was lost with its node
+        import ray
+        attempt = int(ray._private.worker.global_worker.core_worker
+                      .get_current_task_attempt_number())
+    except Exception:   # noqa: BLE001 - another Ray version: the ledger alone counts
+        attempt = None
     tmp = tempfile.mkdtemp(prefix='mds_ray_run_')
     try:
         junit = os.path.join(tmp, 'run.xml') if want_junit else None
@@ -117,7 +124,7 @@ def _execute(cmd_tail, want_junit, want_bag, ledger, run_id, want_report=False):
         p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                            env=_run_env(), preexec_fn=_die_with_parent)
         out = {'rc': p.returncode, 'text': p.stdout, 'wall': time.monotonic() - t0,
-               'node': node}
+               'node': node, 'attempt': attempt}
         for key, path in (('junit', junit), ('bag', bag)):
             if path and os.path.exists(path):
                 with open(path, 'rb') as f:
@@ -228,6 +235,8 @@ def run_cluster(runs, address, layout, rtf=None, cpus=1.0, out=print):
                     attempts = len(ray.get(ledger.all.remote(), timeout=30).get(r.id, [])) or 1
                 except Exception:   # noqa: BLE001 - ledger lost with its node: unknown
                     attempts = 1
+                if o.get('attempt') is not None:    # the task's own count (CI once lost a
+                    attempts = max(attempts, o['attempt'] + 1)   # retry: 'retried: none')
                 res = result(r, o['rc'], o['text'], o['wall'], node=o['node'],
                              attempts=attempts)
                 finished(res, layout, out)

@@ -153,27 +153,27 @@ def test_the_originals_load_whole(originals, tmp_path):
             ['e5', 'e20', 'e35']
 
 
-def test_an_mcap_cut_short_replays_what_precedes_the_cut_with_one_warning(tmp_path):
-    whole = str(tmp_path / 'chunks.mcap')
+def _cut_in_half(tmp_path, ext):
+    """A 400-message recording in 4 kB chunks, cut in the middle, loaded: (record, path,
+    the IMU messages kept)."""
+    whole = str(tmp_path / ('chunks.' + ext))
     write_recording(whole, n=400, chunk=4096)
     blob = open(whole, 'rb').read()
-    p = tmp_path / 'cut.mcap'
+    p = tmp_path / ('cut.' + ext)
     p.write_bytes(blob[:len(blob) // 2])
     rec = load_recording(str(p))
+    return rec, p, len([m for m in rec.msgs if m[1] == IMU])
+
+
+def test_an_mcap_cut_short_replays_what_precedes_the_cut_with_one_warning(tmp_path):
+    rec, p, n = _cut_in_half(tmp_path, 'mcap')
     assert rec.warning and str(p) in rec.warning and 'replaying the' in rec.warning
-    n = len([m for m in rec.msgs if m[1] == IMU])
     assert 50 < n < 400, n
 
 
 def test_a_bag_cut_short_replays_its_complete_chunks_with_one_warning(tmp_path):
-    whole = str(tmp_path / 'chunks.bag')
-    write_recording(whole, n=400, chunk=4096)
-    blob = open(whole, 'rb').read()
-    p = tmp_path / 'cut.bag'
-    p.write_bytes(blob[:len(blob) // 2])
-    rec = load_recording(str(p))
+    rec, p, n = _cut_in_half(tmp_path, 'bag')
     assert rec.warning and 'has no index' in rec.warning and str(p) in rec.warning
-    n = len([m for m in rec.msgs if m[1] == IMU])
     assert 50 < n < 400, n
 
 

@@ -242,16 +242,24 @@ def _close_quietly(w):
         pass
 
 
-def _reindex_bag(path):
-    """Reindex a rosbag cut short (no index, a partial last chunk) in place; returns the
-    number of messages and the end time (rospy.Time) that stay readable."""
+def _reindex(f):
+    """What `rosbag reindex` does to a bag without its index (cut short, never closed):
+    its complete chunks indexed, a partial last chunk cut off. ``f``: a path (the file
+    itself) or a binary file object."""
     import rosbag
-    b = rosbag.Bag(path, 'a', allow_unindexed=True)
+    b = rosbag.Bag(f, 'a', allow_unindexed=True)
     try:
         for _ in b.reindex():
             pass
     finally:
         b.close()
+
+
+def _reindex_bag(path):
+    """Reindex a rosbag cut short in place; returns the number of messages and the end
+    time (rospy.Time) that stay readable."""
+    import rosbag
+    _reindex(path)
     with rosbag.Bag(path) as b:
         n = b.get_message_count()
         import rospy
@@ -305,10 +313,7 @@ class _BagReader(object):
         try:
             with open(path, 'rb') as f:
                 mem = _Memory(f.read())
-            bag = rosbag.Bag(mem, 'a', allow_unindexed=True)   # as `rosbag reindex` does
-            for _pos in bag.reindex():
-                pass
-            bag.close()
+            _reindex(mem)
             bag = rosbag.Bag(_Memory(mem.getvalue()), 'r')
         except Exception as e:  # noqa: BLE001
             raise RecordingError('cannot read the rosbag %s: it has no index (cut short?) '

@@ -16,6 +16,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from testing_instance import procs
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 NODE = os.path.join(ROOT, 'testing_instance', 'nodes', 'run_scenario')
@@ -38,17 +40,7 @@ expect:
 
 def left_behind(marker):
     """Processes still carrying the run's marker in their environment."""
-    out = []
-    for d in os.listdir('/proc'):
-        if d.isdigit() and int(d) != os.getpid():
-            try:
-                with open('/proc/%s/environ' % d, 'rb') as f:
-                    if marker.encode() in f.read():
-                        with open('/proc/%s/cmdline' % d, 'rb') as g:
-                            out.append((int(d), g.read().replace(b'\0', b' ')[:120]))
-            except OSError:
-                pass
-    return out
+    return procs.carrying(marker)
 
 
 def run_fault(tmp_path, mode, duration=4.0, at=1.0, report=False):

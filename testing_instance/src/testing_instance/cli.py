@@ -227,12 +227,9 @@ def farm(files, jobs, a, out=print):
 
 
 def _farm_index(report, results, wall, out):
-    from .report import write_index
+    from .report import write_farm_index
     runs = [dict(name=os.path.splitext(os.path.basename(f))[0],
                  status={EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}.get(rc, 'ERROR'), wall=w,
                  report=os.path.join(report, os.path.splitext(os.path.basename(f))[0]))
             for f, rc, w, _text in results]
-    try:
-        out('report: %s' % write_index(report, runs, wall))
-    except OSError as e:
-        out('report: cannot write the farm index to %s: %s' % (report, e.strerror or e))
+    write_farm_index(report, runs, wall, out)

@@ -101,9 +101,8 @@ def _execute(cmd_tail, want_junit, want_bag, ledger, run_id, want_report=False):
             ray.get(ledger.start.remote(run_id, node), timeout=30)
         except Exception:   # noqa: BLE001 - the ledger only counts attempts
             pass
-    attempt = None           # Ray's own count (0: the first); kept by the task itself, so
-    try:                     # it survives a ledger that was lost with its node
-        import ray
+    try:     # Ray's own attempt count (0: the first), kept by the task itself: it survives
+        import ray           # a ledger that was lost with its node
         attempt = int(ray._private.worker.global_worker.core_worker
                       .get_current_task_attempt_number())
     except Exception:   # noqa: BLE001 - another Ray version: the ledger alone counts

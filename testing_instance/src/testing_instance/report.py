@@ -873,6 +873,15 @@ def write_invalid(out_dir, path, problems, out=print):
     return os.path.join(out_dir, 'index.html')
 
 
+def write_farm_index(out_dir, runs, wall, out):
+    """write_index for a farm (--jobs, --sweep, --cluster); never raises: one line through
+    ``out`` naming the page, or why it could not be written."""
+    try:
+        out('report: %s' % write_index(out_dir, runs, wall))
+    except OSError as e:
+        out('report: cannot write the farm index to %s: %s' % (out_dir, e.strerror or e))
+
+
 def write_index(out_dir, runs, wall=None):
     """A farm's index page: one row per run (name, seed, status, wall s, expectations, link
     to its report) and the totals. runs: [{name, status, wall, report (folder)}]."""

@@ -160,14 +160,10 @@ class Layout(object):
         """The farm index page over the runs' reports (nothing without --report)."""
         if not self.report:
             return
-        from .report import write_index
-        runs = [dict(name=r['name'], status=r['status'], wall=r['wall'],
-                     report=self.report_of(r['run'])) for r in results]
-        try:
-            out('report: %s' % write_index(self.report, runs, wall))
-        except OSError as e:
-            out('report: cannot write the farm index to %s: %s' % (self.report,
-                                                                   e.strerror or e))
+        from .report import write_farm_index
+        write_farm_index(self.report, [dict(name=r['name'], status=r['status'], wall=r['wall'],
+                                            report=self.report_of(r['run'])) for r in results],
+                         wall, out)
 
     def log_of(self, run):
         if not self.out:

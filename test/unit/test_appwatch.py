@@ -1,5 +1,6 @@
 """The runner's evidence that apps answered a slice (testing_instance.appwatch), on real
-processes: idle, busy, stopped, and one that does not read its connection."""
+processes: idle, busy, stopped, one that does not read its connection, and one that dies
+slowly after an uncaught exception."""
 import contextlib
 import signal
 import socket
@@ -13,8 +14,11 @@ from testing_instance.appwatch import AppHung, AppWatch
 
 
 class P(object):
-    def __init__(self, code):
-        self.p = subprocess.Popen([sys.executable, '-c', code])
+    def __init__(self, code, log_path=None):
+        self.log_path = log_path
+        out = open(log_path, 'w') if log_path else None
+        self.p = subprocess.Popen([sys.executable, '-u', '-c', code], stdout=out,
+                                  stderr=subprocess.STDOUT)
 
     def alive(self):
         return self.p.poll() is None
@@ -24,8 +28,8 @@ class P(object):
 def spawn():
     made = []
 
-    def make(code):
-        made.append(P(code))
+    def make(code, log_path=None):
+        made.append(P(code, log_path))
         time.sleep(0.3)                  # the interpreter is up
         return made[-1]
     yield make
@@ -106,3 +110,51 @@ def test_an_app_that_reads_is_not_hung(spawn):
         w = AppWatch([('/reader', p)], hang_after=0.4, limit=5.0)
         w.wait(sleeper)                   # read at once: idle, no hang
         assert not w.misses
+
+
+# a Python app whose main thread raised: the traceback is printed at once, the exit (rospy's
+# shutdown: unregistering, joining threads) takes seconds; here the exit is an atexit sleep
+DIES_SLOWLY = ('import atexit, time\natexit.register(time.sleep, %g)\ntime.sleep(0.5)\n'
+               'raise RuntimeError("crashed on purpose")')
+
+
+def test_an_app_dying_of_an_exception_is_waited_for_until_it_has_exited(spawn, tmp_path):
+    p = spawn(DIES_SLOWLY % 1.5, str(tmp_path / 'app.log'))
+    w = AppWatch([('/dying', p)], limit=0.2, give_up=1, exit_wait=10.0)
+    w.wait(sleeper)                       # before the exception: idle
+    time.sleep(0.5)                       # it raised and is busy dying (atexit)
+    t0 = time.monotonic()
+    w.wait(sleeper)
+    assert not p.alive(), 'the runner stepped on while the app was dying'
+    assert time.monotonic() - t0 >= 0.5
+    assert not w.misses and not w.ignored  # dying is not "never falls idle"
+
+
+def test_a_traceback_the_app_lives_through_is_waited_for_once(spawn, tmp_path):
+    code = ('import time, traceback\ntime.sleep(0.5)\n'
+            'try:\n    1 / 0\nexcept ZeroDivisionError:\n    traceback.print_exc()\n'
+            'time.sleep(0.5)\ntry:\n    1 / 0\nexcept ZeroDivisionError:\n'
+            '    traceback.print_exc()\ntime.sleep(60)')
+    p = spawn(code, str(tmp_path / 'app.log'))
+    w = AppWatch([('/logs', p)], limit=0.2, exit_wait=0.6)
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    w.wait(sleeper)                       # the first traceback: waited for, up to exit_wait
+    assert 0.5 <= time.monotonic() - t0 < 3.0 and p.alive()
+    time.sleep(1.0)                       # the second traceback: not waited for
+    t0 = time.monotonic()
+    w.wait(sleeper)
+    assert time.monotonic() - t0 < 0.5 and w.survived == {'/logs'}
+
+
+def test_a_callback_exception_rospy_logs_is_not_waited_for(spawn, tmp_path):
+    code = ('import sys, time\ntime.sleep(0.3)\n'
+            'print("[ERROR] [12.5]: bad callback: <function on_imu>")\n'
+            'print("Traceback (most recent call last):")\nprint("ValueError: x")\n'
+            'time.sleep(60)')
+    p = spawn(code, str(tmp_path / 'app.log'))
+    time.sleep(0.5)
+    w = AppWatch([('/cb', p)], limit=0.2, exit_wait=5.0)
+    t0 = time.monotonic()
+    w.wait(sleeper)
+    assert time.monotonic() - t0 < 1.0 and not w.exiting

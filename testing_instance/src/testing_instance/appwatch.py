@@ -11,10 +11,23 @@ The same readings tell a hung app: a connection of it has had unread bytes at ev
 for ``hang_after`` s of wall time, or every one of its threads is stopped (SIGSTOP). That is an error naming the app (``AppHung``). An app that never falls idle (it
 works by the wall clock, or floods) is waited for at most ``limit`` s per slice; after
 ``give_up`` such slices in a row it is no longer waited for, with one warning.
+
+An app that printed an uncaught exception's traceback (a Python app whose main thread
+raised) is exiting: rospy's exit unregisters from the master and joins its threads, which
+takes seconds under load. It is waited for until it has exited (at most ``exit_wait`` s of
+wall time, outside the per-slice limit), so that the runner notices the crash in the slice
+in which it happened instead of stepping on while the app dies. A traceback that rospy
+logs for a callback (``bad callback``) or one of a dying thread (``Exception in thread``)
+does not end the process and is not waited for; an app that outlives ``exit_wait`` after a
+traceback is not waited for on tracebacks again.
 """
+import os
 import time
 
 from . import procs
+
+TRACEBACK = b'Traceback (most recent call last):'
+NOT_FATAL = (b'bad callback', b'Exception in thread')
 
 __all__ = ['AppWatch', 'AppHung']
 
@@ -29,7 +42,7 @@ class AppHung(Exception):
 
 class AppWatch(object):
     def __init__(self, apps, own_pending=lambda: None, hang_after=10.0, limit=2.0, give_up=3,
-                 warn=print, clock=time.monotonic):
+                 warn=print, clock=time.monotonic, exit_wait=10.0):
         """apps: [(name, Proc)]; own_pending(): a reason string while the runner itself
         still holds undelivered app messages, else None."""
         self.apps = list(apps)
@@ -43,6 +56,37 @@ class AppWatch(object):
         self.misses = {}       # name -> slices in a row it did not fall idle
         self.ignored = set()
         self.waited = 0.0      # wall s spent waiting, for the timeline's figures
+        self.exit_wait = float(exit_wait)
+        self.exiting = {}      # name -> wall time a fatal-looking traceback was first seen
+        self.survived = set()  # apps that outlived a traceback: not waited for on them again
+        self.log_pos = {}      # name -> bytes of its log already read
+        self.log_tail = {}     # name -> its last lines read
+
+    def _traceback_seen(self, name, p):
+        """Did the app's log (its stdout and stderr) get an uncaught exception's traceback
+        since the last look?"""
+        path = getattr(p, 'log_path', None)
+        if not path or name in self.survived:
+            return False
+        pos = self.log_pos.get(name, 0)
+        try:
+            size = os.path.getsize(path)
+            if size <= pos:
+                return False
+            with open(path, 'rb') as f:
+                f.seek(pos)
+                new = f.read(size - pos)
+        except OSError:
+            return False
+        self.log_pos[name] = pos + len(new)
+        tail = self.log_tail.get(name, b'')
+        lines = (tail + new).split(b'\n')
+        self.log_tail[name] = b'\n'.join(lines[-3:])  # the lines before the next look's
+        for i in range(tail.count(b'\n'), len(lines)):  # lines already looked at: context
+            if lines[i].startswith(TRACEBACK) and not any(
+                    k in line for line in lines[max(0, i - 2):i] for k in NOT_FATAL):
+                return True
+        return False
 
     def _busy(self, queues):
         """[(name, why)] of the apps still working (not those given up on); raises
@@ -53,6 +97,14 @@ class AppWatch(object):
         for name, p in self.apps:
             if not p.alive():
                 continue
+            if name not in self.exiting and self._traceback_seen(name, p):
+                self.exiting[name] = now
+            if name in self.exiting:
+                if now - self.exiting[name] < self.exit_wait:
+                    out.append((name, 'exiting'))
+                    continue
+                del self.exiting[name]        # it lives on: the traceback was not fatal
+                self.survived.add(name)
             pids = procs.descendants(p.p.pid, kids)
             states = [s for pid in pids for s in procs.thread_states(pid)]
             inodes = set()
@@ -105,8 +157,11 @@ class AppWatch(object):
                 for name, _p in self.apps:
                     self.misses.pop(name, None)
                 break
-            if self.clock() - t0 >= self.limit:
+            dying_only = busy and all(w == 'exiting' for _n, w in busy)
+            if self.clock() - t0 >= self.limit and not dying_only:
                 for name, why in busy:
+                    if why == 'exiting':
+                        continue
                     n = self.misses[name] = self.misses.get(name, 0) + 1
                     if n >= self.give_up and name not in self.ignored:
                         self.ignored.add(name)

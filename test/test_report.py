@@ -113,8 +113,9 @@ def test_live_and_replay_reports_hold_the_same_verdicts_and_points(compass, comp
     ta = {v['name']: v['t'] for v in a['verdicts']}
     tb = {v['name']: v['t'] for v in b['verdicts']}
     assert ta['magnetic_x_small'] == tb['magnetic_x_small']
-    # the app's unstamped outputs (timed by their arrival): as many points (give or take one
-    # a slice late at the ends), the same band, the deciding message within a slice
+    # the app runs again in the replay (its two inputs race each other): as many points
+    # (give or take one a slice late at the ends), the same band, the deciding message
+    # within a slice
     for name in ('top_along_world_x', 'turned_left_by_90'):
         pa, pb = a['plots'][name], b['plots'][name]
         na, nb = len(pa['series'][0][1]), len(pb['series'][0][1])

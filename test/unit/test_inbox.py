@@ -55,3 +55,16 @@ def test_settle_waits_while_messages_keep_arriving():
     ib.settle(quiet=0.2, longest=30.0)      # gaps are 5 ms: returns only after the burst
     assert ib.counts == {'/x': 21}
     th.join()
+
+
+def test_unstamped_messages_are_held_until_the_handshake_times_them():
+    box = Inbox()
+    box.put(1.02, '/imu', 'a')
+    box.hold('/app/out', 'x')
+    box.put(1.04, '/imu', 'b')
+    assert box.counts == {'/imu': 2, '/app/out': 1}     # counted at once
+    assert [m for _t, _s, _tp, m in box.take()] == ['a', 'b']
+    box.hold('/app/out', 'y')
+    assert box.stamp_held(1.05) == [('/app/out', 'x'), ('/app/out', 'y')]
+    assert [(t, m) for t, _s, _tp, m in box.take()] == [(1.05, 'x'), (1.05, 'y')]
+    assert box.stamp_held(1.10) == [] and box.take() == []

@@ -60,3 +60,18 @@ def test_invalid_scenario_is_one_failing_item_with_file_and_line(tmp_path):
             "'h'?); declared: h") in out, out
     assert 'Traceback' not in out
     assert '<failure' in (tmp_path / 'j.xml').read_text()
+
+
+def test_master_ports_follow_xdist_s_own_worker_id(monkeypatch):
+    from testing_instance import pytest_plugin as pp
+
+    class Config(object):
+        pass
+    # a pytest started inside an xdist worker inherits PYTEST_XDIST_WORKER: not a worker
+    monkeypatch.setenv('PYTEST_XDIST_WORKER', 'gw1')
+    plain = pp.worker_port(Config())
+    assert pp.PORT_BASE <= plain < pp.PORT_BASE + pp.PORT_SPAN, plain
+    worker = Config()
+    worker.workerinput = {'workerid': 'gw1'}
+    port = pp.worker_port(worker)
+    assert pp.PORT_BASE + 2 * pp.PORT_SPAN <= port < pp.PORT_BASE + 3 * pp.PORT_SPAN, port

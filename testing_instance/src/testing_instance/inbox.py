@@ -6,6 +6,11 @@ and what came from the world node (``from_world``), so the runner, told by the w
 messages it handed to the runner's connections, waits for exactly those (``wait_counts``);
 ``settle`` (no message for ``quiet`` s of wall time) is left for topics whose publishers
 do not count (other nodes of a launch file).
+
+Messages without a stamp of their own (an app's ``std_msgs`` outputs) are ``hold``: counted
+at once, timed later by ``stamp_held(t)``, which the runner calls at the end of each slice
+handshake with the slice's sim time. Their time is then the handshake they were collected
+in, the same in every run, not the moment the runner's clock happened to read on arrival.
 """
 import threading
 import time
@@ -17,6 +22,7 @@ class Inbox(object):
     def __init__(self):
         self._cv = threading.Condition()
         self._buffer = []
+        self._held = []
         self._seq = 0
         self.counts = {}                  # topic -> messages received so far
         self.from_world = {}              # topic -> of those, from the world node
@@ -31,6 +37,24 @@ class Inbox(object):
                 self.from_world[topic] = self.from_world.get(topic, 0) + 1
             self.last_wall = time.monotonic()
             self._cv.notify_all()
+
+    def hold(self, topic, msg, from_world=False):
+        """An unstamped message, counted now, timed by the next ``stamp_held``."""
+        with self._cv:
+            self._seq += 1
+            self._held.append((self._seq, topic, msg))
+            self.counts[topic] = self.counts.get(topic, 0) + 1
+            if from_world:
+                self.from_world[topic] = self.from_world.get(topic, 0) + 1
+            self.last_wall = time.monotonic()
+            self._cv.notify_all()
+
+    def stamp_held(self, t):
+        """Time every held message at t; returns them as [(topic, msg)] in arrival order."""
+        with self._cv:
+            held, self._held = self._held, []
+            self._buffer.extend((t, seq, topic, msg) for seq, topic, msg in held)
+        return [(topic, msg) for _seq, topic, msg in held]
 
     def take(self):
         """Everything received since the last take, as (t, seq, topic, msg) sorted by

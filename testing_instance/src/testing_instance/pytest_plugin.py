@@ -114,8 +114,9 @@ _counter = [0]
 
 def worker_port(config):
     """The next free master port of this process's range (xdist worker gwN: range N+1;
-    no xdist: range 0)."""
-    wid = os.environ.get('PYTEST_XDIST_WORKER', '')
+    no xdist: range 0). The worker id is xdist's own (config.workerinput), not the
+    PYTEST_XDIST_WORKER variable, which a pytest started inside an xdist worker inherits."""
+    wid = str(getattr(config, 'workerinput', {}).get('workerid', ''))
     k = int(wid[2:]) + 1 if wid.startswith('gw') and wid[2:].isdigit() else 0
     base = PORT_BASE + PORT_SPAN * k
     for _ in range(PORT_SPAN):

@@ -178,14 +178,17 @@ def replay_run(r):
                       lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
                       lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC)
     end = r.t0 + float(meta.get('duration', r.sc.duration))
+    r.hold_unstamped = True     # the apps' unstamped outputs: timed at the slice's end, as live
     while True:
         r.check_world()
         r.t = src.step_to(min(end, r.t + r.sc.slice))
         r.settle(quiet=0.03)
+        r.stamp_held()
         r.subscribe_all(wait_connections=False)
         r.drain()
         if r.t >= end - 1e-9:
             break
     r.settle()
+    r.stamp_held()
     r.drain()
     r.missing_topics_are_errors('is neither in the recording nor published by an app')

@@ -90,6 +90,7 @@ class Runner(Actions):
         self.app_procs = []        # [(node name, Proc)]
         self.apps_finished = set()
         self.appwatch = None
+        self.hold_unstamped = False  # live, once stepping: apps' unstamped outputs are held
         self.uncounted = set()     # subscribed topics with publishers that do not count
         self.world_topics = set()  # subscribed topics the world publishes
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
@@ -122,6 +123,7 @@ class Runner(Actions):
     check_world = property(lambda self: self._check_world)
     settle = property(lambda self: self._settle)
     drain = property(lambda self: self._drain)
+    stamp_held = property(lambda self: self._stamp_held)
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -528,20 +530,36 @@ class Runner(Actions):
                     e.error('field %r does not exist on %s: %s' % (e.field, cls._type, err))
 
     def _stamp_of(self, msg):
+        """The message's header stamp, or None when it has none."""
         h = getattr(msg, 'header', None)
         st = getattr(h, 'stamp', None)
         if st is not None and (st.secs or st.nsecs):
             return st.to_sec()
-        return self.rospy.get_rostime().to_sec()
+        return None
 
     def _cb(self, msg, topic):
         t = self._stamp_of(msg)
+        hdr = getattr(msg, '_connection_header', None) or {}
+        world = hdr.get('callerid') == self.world_node
+        if t is None and not world and self.hold_unstamped:
+            # an app's unstamped output: timed at the end of the handshake that collects
+            # it (the same slice in every run), see _stamp_held
+            self.inbox.hold(topic, msg)
+            return
+        if t is None:
+            t = self.rospy.get_rostime().to_sec()
         if self.debug and not hasattr(msg, 'header'):
             self.say('  debug: %s at %.3f' % (topic, t))
-        hdr = getattr(msg, '_connection_header', None) or {}
-        self.inbox.put(t, topic, msg, from_world=hdr.get('callerid') == self.world_node)
+        self.inbox.put(t, topic, msg, from_world=world)
         if self.bag is not None:
             self._bag_write(topic, msg, t)
+
+    def _stamp_held(self):
+        for topic, msg in self.inbox.stamp_held(self.t):
+            if self.debug:
+                self.say('  debug: %s at %.3f' % (topic, self.t))
+            if self.bag is not None:
+                self._bag_write(topic, msg, self.t)
 
     def _bag_write(self, topic, msg, t):
         with self.bag_lock:
@@ -585,6 +603,7 @@ class Runner(Actions):
             except AppHung as e:
                 p = dict(self.app_procs).get(e.name)
                 raise RunError(str(e), _tail(p.log_path) if p else [])
+        self._stamp_held()
         self.sync_wall += time.monotonic() - w0
 
     def _own_pending(self):
@@ -762,6 +781,7 @@ class Runner(Actions):
         self._start_apps()
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
+        self.hold_unstamped = True
         self._subscribe_all()
         self._sync()
         self._drain()

@@ -39,7 +39,7 @@ def problems(fn, *a, **kw):
 
 def expand_text(tmp_path, text, **kw):
     path = write(tmp_path, text)
-    return P.expand(P.load_raw(path), path, **kw)
+    return scenario.expand(P.load_raw(path), path, **kw)
 
 
 def test_defaults_and_substitution_keep_types(tmp_path):
@@ -136,7 +136,7 @@ def test_bad_inputs_have_file_and_line(tmp_path):
     # a type that does not fit once substituted: the scenario validator's message and line,
     # and the run that has it
     path = write(tmp_path, base + 'sweep: {y: [0, abc]}\n')
-    msg = problems(P.expand, P.load_raw(path), path)
+    msg = problems(scenario.expand, P.load_raw(path), path)
     assert msg == [path + ":4: phones[0].position: expected a list of 3 numbers, got "
                    "[0, 'abc', 1] (run y=abc)"], msg
     # empty distributions
@@ -148,25 +148,25 @@ def test_bad_inputs_have_file_and_line(tmp_path):
                        ('{values: []}', 'empty value set'),
                        ('{range: [0, 1, 0]}', 'the step is 0')):
         path = write(tmp_path, base + 'sweep:\n  heading: %s\n' % dist)
-        msg = problems(P.expand, P.load_raw(path), path)
+        msg = problems(scenario.expand, P.load_raw(path), path)
         assert len(msg) == 1 and ':10: sweep.heading' in msg[0] and text in msg[0], (dist, msg)
     # stochastic draws need a seed and a count
     path = write(tmp_path, base + 'sweep:\n  heading: {normal: [0, 1]}\n')
-    msg = problems(P.expand, P.load_raw(path), path)
+    msg = problems(scenario.expand, P.load_raw(path), path)
     assert any(':10: sweep.heading.count: a normal distribution needs count' in m for m in msg)
     assert any(':10: sweep.heading.seed: a normal distribution needs seed' in m for m in msg)
     # zip of different lengths, a parameter not declared, one swept twice
     path = write(tmp_path, base + 'sweep:\n  zip: {heading: [1, 2], y: [1, 2, 3]}\n')
-    assert problems(P.expand, P.load_raw(path), path) == [
+    assert problems(scenario.expand, P.load_raw(path), path) == [
         path + ':10: sweep.zip: zip needs distributions of the same length, got heading: 2, '
         'y: 3']
     path = write(tmp_path, base + 'sweep:\n  headng: [1, 2]\n')
-    msg = problems(P.expand, P.load_raw(path), path)
+    msg = problems(scenario.expand, P.load_raw(path), path)
     assert msg == [path + ":10: sweep.headng: unknown parameter (did you mean 'heading'?); "
                    "declared in parameters: heading, temp, y"]
     path = write(tmp_path, base + 'sweep:\n  cartesian:\n  - {heading: [1]}\n'
                  '  - {heading: [2]}\n')
-    assert 'swept twice' in problems(P.expand, P.load_raw(path), path)[0]
+    assert 'swept twice' in problems(scenario.expand, P.load_raw(path), path)[0]
     # a sweep without parameters, a bad expression, a bad parameter name
     path = write(tmp_path, BODY.replace("'${y}'", '0').replace("'${temp}'", '1').replace(
         "'${radians(heading)}'", '0').replace("'${(338.5 - heading) % 360}'", '1') +
@@ -189,12 +189,12 @@ def test_expansion_over_the_limit_is_refused_with_the_count(tmp_path):
     base = 'parameters: {heading: 0, y: 0, temp: 20}\n' + BODY
     text = base + ('sweep:\n  heading: {range: [0, 359, 1]}\n  y: {range: [0, 29, 1]}\n')
     path = write(tmp_path, text)
-    msg = problems(P.expand, P.load_raw(path), path)
+    msg = problems(scenario.expand, P.load_raw(path), path)
     assert msg == [path + ':10: sweep: expands to 10800 runs, more than the limit of 10000 '
                    '(raise it with --max-runs N or sweep.max_runs: N)']
-    assert len(P.expand(P.load_raw(path), path, max_runs=20000, check=False)) == 10800
+    assert len(P.expand(P.load_raw(path), path, max_runs=20000)) == 10800
     path = write(tmp_path, text.replace('sweep:\n', 'sweep:\n  max_runs: 11000\n'))
-    assert len(P.expand(P.load_raw(path), path, check=False)) == 10800
+    assert len(P.expand(P.load_raw(path), path)) == 10800
     path = write(tmp_path, base + 'sweep:\n  heading: {range: [0, 1000000000, 1]}\n')
     assert 'expands to 1000000001 values, more than the limit of 10000' in problems(
         P.expand, P.load_raw(path), path)[0]

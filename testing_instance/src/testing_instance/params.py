@@ -38,7 +38,11 @@ import re
 
 import yaml
 
-from .scenario import LDict, LList, ScenarioError, _close, _line, _show
+from .yamlsrc import LDict, LList, ScenarioError
+from .yamlsrc import close_match as _close
+from .yamlsrc import line_of as _line
+from .yamlsrc import read as load_raw  # noqa: F401 - the parsed file with line numbers
+from .yamlsrc import show as _show
 
 __all__ = ['MAX_RUNS', 'FUNCTIONS', 'declared', 'concrete', 'expand', 'parse_set',
            'format_value', 'run_label', 'Variant']
@@ -481,12 +485,12 @@ class Variant(object):
         return 'Variant(%d, %s)' % (self.index, self.label)
 
 
-def expand(data, path='<scenario>', sets=None, max_runs=None, check=True, sweep=True):
+def expand(data, path='<scenario>', sets=None, max_runs=None, check=None, sweep=True):
     """The concrete runs of a scenario's sweep (a list of Variant; one, with the defaults,
-    when there is no sweep). ``sets``: {name: value} pinned by --set. Each concrete run is
-    substituted and validated (``check``); every problem is raised as ScenarioError with
-    file:line, before anything starts."""
-    from .scenario import validate
+    when there is no sweep). ``sets``: {name: value} pinned by --set. With ``check`` (a
+    validator, scenario.validate: scenario.expand passes it) each concrete run is
+    substituted and validated; every problem is raised as ScenarioError with file:line,
+    before anything starts."""
     p = _Problems(path)
     params = declared(data, path, p)
     sets = dict(sets or {})
@@ -547,7 +551,7 @@ def expand(data, path='<scenario>', sets=None, max_runs=None, check=True, sweep=
             except ScenarioError as e:
                 errs = e.problems
             else:
-                errs = validate(c, path)
+                errs = check(c, path)
             for e in errs:
                 if e not in seen_p:
                     seen_p.add(e)
@@ -558,22 +562,3 @@ def expand(data, path='<scenario>', sets=None, max_runs=None, check=True, sweep=
         if problems:
             raise ScenarioError(problems)
     return variants
-
-
-def load_raw(path):
-    """The parsed YAML of a scenario file with line numbers (ScenarioError when unreadable
-    or not YAML)."""
-    from .scenario import _Loader
-    try:
-        with open(path) as f:
-            text = f.read()
-    except OSError as e:
-        raise ScenarioError(['%s: cannot read the scenario file: %s' % (path, e.strerror)])
-    try:
-        return yaml.load(text, Loader=_Loader)
-    except yaml.YAMLError as e:
-        mark = getattr(e, 'problem_mark', None)
-        line = mark.line + 1 if mark is not None else 0
-        raise ScenarioError(['%s:%d: not valid YAML: %s' % (
-            path, line, getattr(e, 'problem', None) or str(e))])
-

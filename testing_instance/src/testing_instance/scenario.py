@@ -8,10 +8,14 @@ the validator cannot drift apart. ``load(path)`` returns a Scenario.
 import math
 import os
 
-import yaml
+from .params import concrete, expand as _expand
+from .yamlsrc import LDict, LList, ScenarioError, parse, read
+from .yamlsrc import close_match as _close
+from .yamlsrc import line_of as _line
+from .yamlsrc import show as _show
 
 __all__ = ['ScenarioError', 'Scenario', 'load', 'loads', 'ACTIONS', 'PREDICATE_KEYS',
-           'IMAGE_KEYS', 'ENV_NAMES', 'MODES', 'validate']
+           'IMAGE_KEYS', 'ENV_NAMES', 'MODES', 'validate', 'expand']
 
 # environment value names (sim_world.environment; Environment.msg)
 ENV_NAMES = ('latitude', 'longitude', 'elevation', 'heading', 'north_alpha',
@@ -20,58 +24,6 @@ ENV_NAMES = ('latitude', 'longitude', 'elevation', 'heading', 'north_alpha',
              'sea_level_pressure', 'sea_level_temperature', 'temperature_gradient', 'daylight')
 
 MODES = ('eventually', 'always', 'never', 'count', 'rate')
-
-
-class ScenarioError(Exception):
-    """One or more problems in a scenario file; str() gives one line per problem."""
-
-    def __init__(self, problems):
-        self.problems = list(problems)
-        Exception.__init__(self, '\n'.join(self.problems))
-
-
-# -- a YAML loader that remembers line numbers --------------------------------------------
-class LDict(dict):
-    line = 0
-    key_lines = None
-
-
-class LList(list):
-    line = 0
-    item_lines = None
-
-
-class _Loader(yaml.SafeLoader):
-    pass
-
-
-def _construct_mapping(loader, node):
-    loader.flatten_mapping(node)
-    d = LDict()
-    d.line = node.start_mark.line + 1
-    d.key_lines = {}
-    for knode, vnode in node.value:
-        k = loader.construct_object(knode, deep=True)
-        if not isinstance(k, (str, int, float, bool)) or k is None:
-            raise yaml.constructor.ConstructorError(
-                None, None, 'a mapping key must be a plain word', knode.start_mark)
-        if k in d:
-            raise yaml.constructor.ConstructorError(
-                None, None, 'key %r appears twice' % (k,), knode.start_mark)
-        d[k] = loader.construct_object(vnode, deep=True)
-        d.key_lines[k] = vnode.start_mark.line + 1
-    return d
-
-
-def _construct_sequence(loader, node):
-    lst = LList(loader.construct_object(c, deep=True) for c in node.value)
-    lst.line = node.start_mark.line + 1
-    lst.item_lines = [c.start_mark.line + 1 for c in node.value]
-    return lst
-
-
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
 
 
 # -- the schema ---------------------------------------------------------------------------
@@ -178,28 +130,25 @@ class Scenario(object):
 
 
 def load(path, values=None):
-    try:
-        with open(path) as f:
-            text = f.read()
-    except OSError as e:
-        raise ScenarioError(['%s: cannot read the scenario file: %s' % (path, e.strerror)])
-    return loads(text, path, values)
+    return _from_data(read(path), path, values)
 
 
 def loads(text, path='<scenario>', values=None):
-    try:
-        data = yaml.load(text, Loader=_Loader)
-    except yaml.YAMLError as e:
-        mark = getattr(e, 'problem_mark', None)
-        line = mark.line + 1 if mark is not None else 0
-        what = getattr(e, 'problem', None) or str(e)
-        raise ScenarioError(['%s:%d: not valid YAML: %s' % (path, line, what)])
-    from .params import concrete          # parameters: / sweep: / ${name} (issue 21)
-    data = concrete(data, path, values)
+    return _from_data(parse(text, path), path, values)
+
+
+def _from_data(data, path, values):
+    data = concrete(data, path, values)   # parameters: / sweep: / ${name} (issue 21)
     problems = validate(data, path)
     if problems:
         raise ScenarioError(problems)
     return Scenario(data, path)
+
+
+def expand(data, path='<scenario>', sets=None, max_runs=None, sweep=True):
+    """The concrete runs of a scenario's sweep (params.expand), each substituted and
+    validated: every problem raised as ScenarioError with file:line."""
+    return _expand(data, path, sets, max_runs, check=validate, sweep=sweep)
 
 
 # -- validation ---------------------------------------------------------------------------
@@ -256,21 +205,6 @@ def _check_kind(kind, v):
     raise AssertionError(kind)
 
 
-def _line(obj, key=None, default=0):
-    if key is not None and isinstance(obj, LDict) and obj.key_lines and key in obj.key_lines:
-        return obj.key_lines[key]
-    if isinstance(obj, LList) and isinstance(key, int) and obj.item_lines \
-            and key < len(obj.item_lines):
-        return obj.item_lines[key]
-    return getattr(obj, 'line', default) or default
-
-
-def _close(word, choices):
-    import difflib
-    m = difflib.get_close_matches(str(word), list(choices), n=1)
-    return ' (did you mean %r?)' % m[0] if m else ''
-
-
 class _V(object):
     def __init__(self, path):
         self.path = path
@@ -310,11 +244,6 @@ def _kind_text(kind):
             'points': 'a list of [x, y, z]', 'series': 'a list of [t, value]',
             'values': 'a mapping name: number', 'nums': 'a list of numbers',
             'int>=0': 'a whole number'}.get(kind, kind)
-
-
-def _show(v):
-    s = repr(v)
-    return s if len(s) <= 60 else s[:57] + '...'
 
 
 def validate(data, path='<scenario>'):

@@ -22,6 +22,7 @@ import time
 import xml.etree.ElementTree as ET
 
 from . import params as P
+from . import scenario as S
 from .scenario import ScenarioError
 
 __all__ = ['Run', 'plan', 'run_local', 'summarise', 'write_outputs', 'main', 'NODE',
@@ -83,7 +84,7 @@ def plan(files, sweep=True, sets=(), max_runs=None, seed=None):
             data = P.load_raw(path)
             params = P.declared(data, path) if isinstance(data, dict) else {}
             pinned = P.parse_set(sets, params, path) if sets else {}
-            variants = P.expand(data, path, pinned, max_runs, sweep=sweep)
+            variants = S.expand(data, path, pinned, max_runs, sweep=sweep)
         except ScenarioError as e:
             problems += e.problems
             continue

@@ -52,3 +52,14 @@ def test_silent_half_huge_and_closed_connections_are_refused_by_reason(pair):
     assert 'closed before sending its connection header' in tcpros_guard._wait_for_header(e)
     c.close()
     e.close()
+
+
+def test_a_flood_of_dropped_connections_is_said_a_few_times_a_minute():
+    now = [0.0]
+    lim = tcpros_guard.Limiter(burst=3, window=60.0, clock=lambda: now[0])
+    said = [lim.line('drop %d' % i) for i in range(10)]
+    assert said[:3] == ['drop 0', 'drop 1', 'drop 2'] and said[3:] == [None] * 7
+    now[0] = 61.0                          # the next minute: said again, with the count
+    assert lim.line('drop 10') == \
+        'drop 10 (and 7 more dropped connections without a line before it)'
+    assert lim.line('drop 11') == 'drop 11'

@@ -15,7 +15,9 @@ calls/s to 0 and a new subscriber never connected while a few silent sockets wer
 ``HEADER_TIMEOUT`` s, and refuses a header longer than ``MAX_HEADER`` bytes; then it passes
 the connection, blocking as before, to rospy's own callback, which reads the header at
 once and sets up the publisher or service connection as always (sim_world.fastpub's
-connections included). A dropped connection is one warning line naming the peer and why.
+connections included). A dropped connection is one warning line naming the peer and why;
+a flood of them (a port scanner, a fuzzer) is said at most ``LOG_BURST`` times per
+``LOG_WINDOW`` s, and the next line says how many were dropped without a line.
 Install it after ``rospy.init_node`` in a process that serves topics or services (the
 sim_world node, and the world embedded in run_scenario: sim_world.gazebo_api does it)."""
 import socket
@@ -28,6 +30,8 @@ __all__ = ['install', 'installed', 'HEADER_TIMEOUT', 'MAX_HEADER', 'MAX_HANDSHAK
 HEADER_TIMEOUT = 5.0       # s from accept until the whole connection header has arrived
 MAX_HEADER = 1 << 16       # bytes; rospy's own headers are a few kB (message definitions)
 MAX_HANDSHAKES = 256       # connections waiting for their header at once
+LOG_BURST = 10             # warning lines about dropped connections ...
+LOG_WINDOW = 60.0          # ... per this many s of wall time
 
 _lock = threading.Lock()
 _slots = threading.BoundedSemaphore(MAX_HANDSHAKES)
@@ -39,11 +43,40 @@ def installed():
     return _original is not None
 
 
+class Limiter(object):
+    """At most ``burst`` lines per ``window`` s; the first line after a quiet spell names
+    how many were left unsaid."""
+
+    def __init__(self, burst=LOG_BURST, window=LOG_WINDOW, clock=time.monotonic):
+        self.burst, self.window, self.clock = burst, window, clock
+        self.start, self.said, self.unsaid = None, 0, 0
+
+    def line(self, text):
+        """The line to log for text, or None to stay silent."""
+        now = self.clock()
+        if self.start is None or now - self.start >= self.window:
+            self.start, self.said = now, 0
+        if self.said >= self.burst:
+            self.unsaid += 1
+            return None
+        self.said += 1
+        if self.unsaid:
+            text += ' (and %d more dropped connections without a line before it)' % \
+                self.unsaid
+            self.unsaid = 0
+        return text
+
+
+_limit = Limiter()
+
+
 def _drop(sock, addr, why):
     stats['dropped'] += 1
-    import rospy
-    rospy.logwarn('tcpros_guard: dropped the connection from %s:%s: %s',
-                  addr[0] if addr else '?', addr[1] if addr else '?', why)
+    line = _limit.line('tcpros_guard: dropped the connection from %s:%s: %s' % (
+        addr[0] if addr else '?', addr[1] if addr else '?', why))
+    if line is not None:
+        import rospy
+        rospy.logwarn('%s', line)
     try:
         sock.close()
     except OSError:

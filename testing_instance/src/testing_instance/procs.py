@@ -2,10 +2,11 @@
 import os
 import signal
 import subprocess
+import time
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Proc', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
+__all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
            'read_chars', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
 
 
@@ -48,13 +49,22 @@ class Proc(object):
         return self.p.poll() is None
 
     def stop(self, grace=10.0):
+        self.interrupt()
+        self.finish(time.monotonic() + grace)
+
+    def interrupt(self):
+        """SIGINT to its process group (the app's rospy shuts down in order)."""
         if self.p.poll() is None:
             try:
                 os.killpg(self.p.pid, signal.SIGINT)
             except OSError:
                 pass
+
+    def finish(self, deadline):
+        """Wait for it until deadline (monotonic), then SIGKILL its group; close its log."""
+        if self.p.poll() is None:
             try:
-                self.p.wait(grace)
+                self.p.wait(max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
                 try:
                     os.killpg(self.p.pid, signal.SIGKILL)
@@ -62,6 +72,42 @@ class Proc(object):
                     pass
                 self.p.wait(5)
         self.log.close()
+
+
+def stop_run(apps, launch=None, node=None, grace=10.0):
+    """Stop a run's processes together: every app (its group gets SIGINT) and the world
+    node (pid ``node``, below the roslaunch Proc ``launch``) at once, each shutting down in
+    order; then the rest of the launch tree (roslaunch, rosmaster, rosout: they hold
+    nothing a run needs) is SIGKILLed instead of shut down one node after the other, as
+    roslaunch does (1.5 s of every run's 2.2 s teardown). Without a node, the launch gets
+    SIGINT like an app. Anything alive at ``grace`` s is SIGKILLed."""
+    deadline = time.monotonic() + grace
+    tree = []
+    for p in apps:
+        p.interrupt()
+    if launch is not None:
+        if node is not None and alive(node) and launch.alive():
+            tree = descendants(launch.p.pid)
+            try:
+                os.kill(node, signal.SIGINT)
+            except OSError:
+                pass
+        else:
+            launch.interrupt()
+    for p in apps:
+        p.finish(deadline)
+    if launch is None:
+        return
+    if tree:
+        while alive(node) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        for pid in [node] + [q for q in tree if q != node]:
+            if alive(pid):
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except OSError:
+                    pass
+    launch.finish(deadline if not tree else time.monotonic() + 5.0)
 
 
 # -- what /proc says about a process tree (the runner's evidence about apps) ----------------

@@ -193,7 +193,14 @@ class Runner(Actions):
                                                            self.sc.timeout), self.world_log())
 
     def _start_apps(self):
-        import rosgraph
+        self._launch_apps()
+        self._await_apps()
+
+    def _launch_apps(self):
+        """Start the apps' processes (once the master is up: their Python start-up overlaps
+        the world's loading); _await_apps waits until they are registered and connected."""
+        if self.app_procs:
+            return
         names = []
         for i, app in enumerate(self.sc.apps):
             name = app.get('name', 'app%d' % i)
@@ -215,6 +222,10 @@ class Runner(Actions):
         self.app_procs = list(names)
         self.appwatch = AppWatch(self.app_procs, self._own_pending, warn=self.say) \
             if names else None
+
+    def _await_apps(self):
+        import rosgraph
+        names = list(self.app_procs)
         # wait until every app is registered with the master (its topics are known)
         m = rosgraph.Master('/scenario_runner')
         deadline = time.monotonic() + min(self.sc.timeout, 60.0)
@@ -227,7 +238,8 @@ class Runner(Actions):
                                    _tail(p.log_path))
                 if n in nodes:
                     names.remove((n, p))
-            time.sleep(0.1)
+            if names:
+                time.sleep(0.05)
         if names:
             raise RunError('app(s) %s did not register with the master within 60 s'
                            % ', '.join(n for n, _p in names),
@@ -329,7 +341,7 @@ class Runner(Actions):
                     pass
                 if time.monotonic() > deadline:
                     raise RunError('phone model %r did not appear' % ph['ns'], self.world_log())
-                time.sleep(0.2)
+                time.sleep(0.05)
 
     def _spawn_more_phones(self):
         for ph in self.sc.phones[1:]:
@@ -764,8 +776,17 @@ class Runner(Actions):
             # rospy reads /use_sim_time at init_node: set it before (the launch file sets
             # it too, maybe later); else this node would time messages by the wall clock
             import rosgraph
-            rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI']) \
-                .setParam('/use_sim_time', True)
+            m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
+            m.setParam('/use_sim_time', True)
+            # roslaunch sets the launch file's parameters before it starts rosout: once
+            # rosout is there, the apps can start (and read them) while the world loads
+            while time.monotonic() < deadline and self.world_proc.alive():
+                try:
+                    m.lookupNode('/rosout')
+                    break
+                except Exception:  # noqa: BLE001 - not yet registered
+                    time.sleep(0.02)
+        self._launch_apps()
         self._init_ros()
         if self.attach:
             self._world_settings()
@@ -894,8 +915,8 @@ class Runner(Actions):
             if self.bag is not None:     # storage faults: one line each, the run goes on
                 self.storage_problems = self.bag.close()
                 self.bag = None
-        for p in reversed(self.procs):
-            p.stop()
+        procs.stop_run([p for p in self.procs if p is not self.world_proc],
+                       self.world_proc, self.watch.get('the world node /sim_world'))
         if self.collector is not None:
             self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):

@@ -7,7 +7,7 @@ from testing_instance.clock import ReplayClock, WorldClock
 def test_replay_clock_publishes_a_slice_in_order_with_clock_before_each():
     out = []
     msgs = [(0.1, '/a', 'a1'), (0.2, '/ev', {'id': 'e'}), (0.25, '/b', 'b1'), (0.3, '/a', 'a2')]
-    c = ReplayClock(msgs, lambda tp, m: out.append(('pub', tp, m)),
+    c = ReplayClock(msgs, lambda tp, m, t: out.append(('pub', tp, m)),
                     lambda t: out.append(('clock', t)),
                     lambda ev, t: out.append(('ev', ev['id'], t)), '/ev')
     assert c.step_to(0.25) == 0.25

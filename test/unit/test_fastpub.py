@@ -65,6 +65,45 @@ def test_no_yield_connection_yields_only_when_the_writer_falls_behind(monkeypatc
     assert t.got == [b'first'] + [b'm%d' % i for i in range(2, 12)]
 
 
+def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
+    """A subscriber that asks (the testing instance, through step_world) gets the sim time
+    of each headerless message handed to it, in order, less those the full queue dropped."""
+    now = [1.0]
+    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
+
+    class TM(object):                          # rospy's topic manager, one publication
+        def __init__(self, conn):
+            self.impl = type('Impl', (), {'connections': [conn]})()
+
+        def get_publications(self):
+            return [('/led', 'std_msgs/ColorRGBA')]
+
+        def get_publisher_impl(self, topic):
+            return self.impl
+    t = FakeTransport()                        # stuck: nothing leaves the queue
+    c = fastpub.NoYieldConnection(t, 3)
+    c.unstamped, c.times = True, []
+    tm = TM(c)
+    try:
+        c.write_data(b'first')                  # taken by the writer thread, which blocks
+        deadline = time.time() + 5
+        while c._queue and time.time() < deadline:
+            time.sleep(0.001)
+        for i in range(5):                      # 1.1 .. 1.5; the queue of 3 drops two
+            now[0] = 1.1 + 0.1 * i
+            c.write_data(b'm%d' % i)
+        assert c.dropped == 2
+        got = fastpub.take_times('/someone', tm)['/led']
+        assert [round(x, 3) for x in got] == [1.0, 1.3, 1.4, 1.5]
+        assert fastpub.take_times('/someone', tm) == {}       # taken: forgotten
+        assert fastpub.take_times('/other', tm) == {}         # not its connection
+    finally:
+        t.release.set()
+        t.done = True
+        with c._lock:
+            c._cond_data_available.notify()
+
+
 def test_writer_error_is_raised_on_the_next_write():
     t = FakeTransport()
     c = fastpub.NoYieldConnection(t, 2)

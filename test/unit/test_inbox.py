@@ -64,7 +64,9 @@ def test_unstamped_messages_are_held_until_the_handshake_times_them():
     box.put(1.04, '/imu', 'b')
     assert box.counts == {'/imu': 2, '/app/out': 1}     # counted at once
     assert [m for _t, _s, _tp, m in box.take()] == ['a', 'b']
-    box.hold('/app/out', 'y')
-    assert box.stamp_held(1.05) == [('/app/out', 'x'), ('/app/out', 'y')]
-    assert [(t, m) for t, _s, _tp, m in box.take()] == [(1.05, 'x'), (1.05, 'y')]
-    assert box.stamp_held(1.10) == [] and box.take() == []
+    box.hold('/led', 'y', from_world=True, tag=1.031)
+    assert box.from_world == {'/led': 1}
+    assert box.stamp_held(lambda topic, tag: 1.05 if tag is None else tag) == \
+        [(1.05, '/app/out', 'x'), (1.031, '/led', 'y')]
+    assert [(t, m) for t, _s, _tp, m in box.take()] == [(1.031, 'y'), (1.05, 'x')]
+    assert box.stamp_held(lambda topic, tag: 0) == [] and box.take() == []

@@ -19,9 +19,21 @@ import logging
 import threading
 import time
 
-__all__ = ['NoYieldConnection', 'handed_to', 'no_yield', 'publisher']
+__all__ = ['NoYieldConnection', 'handed_to', 'no_yield', 'publisher', 'set_sim_clock',
+           'take_times']
 
 log = logging.getLogger('sim_world.fastpub')
+
+_sim_clock = [None]
+_timed_subscribers = set()     # caller ids that asked for times (take_times)
+MAX_TIMES = 100000             # per connection, should a subscriber stop asking
+
+
+def set_sim_clock(fn):
+    """fn() -> the world's sim time (s): from now on, connections of topics whose messages
+    carry no header stamp note the sim time each message was handed over at (take_times)."""
+    _sim_clock[0] = fn
+
 
 try:  # pragma: no branch - rospy is there in the project environment
     from rospy.impl.tcpros_pubsub import QueuedConnection as _Queued
@@ -35,9 +47,14 @@ class NoYieldConnection(_Queued):
     GIL) it yields like rospy, so messages are not dropped just because the publishing
     thread never lets go. ``handed`` counts the messages handed to this connection (latched
     replays included), ``dropped`` those the full queue lost: the testing instance's slice
-    handshake waits for exactly ``handed - dropped`` (see :func:`handed_to`)."""
+    handshake waits for exactly ``handed - dropped`` (see :func:`handed_to`). ``times``
+    (a list, for topics without header stamps to a subscriber that asked, else None) holds
+    the sim time of each message handed over since the last :func:`take_times`, less
+    those dropped."""
     dropped = 0
     handed = 0
+    times = None
+    unstamped = False
 
     def write_data(self, data):
         with self._lock:
@@ -45,9 +62,18 @@ class NoYieldConnection(_Queued):
                 error, self._error = self._error, None
                 raise error
             self.handed += 1
+            times = self.times
             if self._queue_size > 0 and len(self._queue) >= self._queue_size:
+                if times is not None:   # the oldest queued one, if handed since the take
+                    i = len(times) - len(self._queue)
+                    if i >= 0:
+                        del times[i]
                 del self._queue[0]
                 self.dropped += 1
+            if times is not None and _sim_clock[0] is not None:
+                times.append(_sim_clock[0]())
+                if len(times) > MAX_TIMES:
+                    del times[:len(times) - MAX_TIMES]
             self._queue.append(data)
             self._cond_data_available.notify()
             behind = len(self._queue) > max(1, self._queue_size // 2)
@@ -160,7 +186,11 @@ def no_yield(pub, inline_local=False):
     def add_connection(c):
         if local is not None and getattr(c, 'endpoint_id', None) == rospy.get_caller_id():
             return orig_add(_LocalConnection(c, topic))
-        return orig_add(NoYieldConnection(c, qs))
+        nc = NoYieldConnection(c, qs)
+        nc.unstamped = not getattr(pub.data_class, '_has_header', True)
+        if nc.unstamped and getattr(c, 'endpoint_id', None) in _timed_subscribers:
+            nc.times = []           # from its first message (a latched one) on
+        return orig_add(nc)
     impl.queue_size = None          # the original add_connection must not wrap it again
     impl.add_connection = add_connection
     impl._no_yield = True
@@ -211,4 +241,31 @@ def handed_to(subscriber, topic_manager=None):
                 h, d = out.get(topic, (0, 0))
                 with c._lock:
                     out[topic] = (h + c.handed, d + c.dropped)
+    return out
+
+
+def take_times(subscriber, topic_manager=None):
+    """{topic: [sim time, ...]} of the messages without header stamps that this node's
+    publishers handed to the node ``subscriber`` since the last call, in the order sent
+    (and forgets them). The first call starts the recording for that subscriber (its
+    connections opened later are timed from their first message on)."""
+    if subscriber:
+        _timed_subscribers.add(subscriber)
+    if topic_manager is None:
+        from rospy.impl.registration import get_topic_manager
+        topic_manager = get_topic_manager()
+    out = {}
+    if topic_manager is None or not subscriber:
+        return out
+    for topic, _typ in topic_manager.get_publications():
+        impl = topic_manager.get_publisher_impl(topic)
+        if impl is None:
+            continue
+        for c in list(impl.connections):
+            if isinstance(c, NoYieldConnection) and c.unstamped and \
+                    getattr(c, 'endpoint_id', None) == subscriber:
+                with c._lock:
+                    got, c.times = c.times, []
+                if got:
+                    out.setdefault(topic, []).extend(got)
     return out

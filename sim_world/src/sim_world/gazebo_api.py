@@ -75,6 +75,9 @@ class GazeboRosApi(object):
         # connections (rospy reads headers in its accept loop; sim_world.tcpros_guard)
         tcpros_guard.install()
         self.world = world
+        # messages without header stamps are timed by the sim time they went out at, for
+        # step_world's callers (the testing instance times them by it, not by arrival)
+        fastpub.set_sim_clock(lambda: self.world.sim_time)
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
         self.step_until = None                   # step_world: pause at this sim time
@@ -201,7 +204,7 @@ class GazeboRosApi(object):
         """Run until sim time req.until (the first step at or after it), then pause."""
         if self.step_until is not None:
             return StepWorldResponse(False, 'StepWorld: another step_world call is running',
-                                     self.world.sim_time, [], [], [])
+                                     self.world.sim_time, [], [], [], [], [], [])
         until = float(req.until)
         if not math.isfinite(until):
             return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
@@ -215,10 +218,14 @@ class GazeboRosApi(object):
                 break
         self.step_until = None
         counts = fastpub.handed_to(req.subscriber) if req.subscriber else {}
+        times = fastpub.take_times(req.subscriber) if req.subscriber else {}
         topics = sorted(counts)
+        timed = sorted(times)
         return StepWorldResponse(True, 'StepWorld: paused at %.6f' % self.world.sim_time,
                                  self.world.sim_time, topics, [counts[t][0] for t in topics],
-                                 [counts[t][1] for t in topics])
+                                 [counts[t][1] for t in topics], timed,
+                                 [len(times[t]) for t in timed],
+                                 [x for t in timed for x in times[t]])
 
     def _step_reached(self):
         """Run-loop side of step_world: pause once sim time reached the target."""

@@ -25,7 +25,7 @@ class WorldClock(object):
 
 
 class ReplayClock(object):
-    """msgs: [(t, topic, msg)] sorted by t; publish(topic, msg) sends a recorded input,
+    """msgs: [(t, topic, msg)] sorted by t; publish(topic, msg, t) sends a recorded input,
     tick(t) publishes /clock, on_event(msg, t) handles a recorded timeline event (topic
     ``events_topic``)."""
 
@@ -46,6 +46,6 @@ class ReplayClock(object):
                 self._on_event(msg, t)
                 continue
             self._tick(t)
-            self._publish(topic, msg)
+            self._publish(topic, msg, t)
         self._tick(t_next)
         return t_next

@@ -7,10 +7,11 @@ messages it handed to the runner's connections, waits for exactly those (``wait_
 ``settle`` (no message for ``quiet`` s of wall time) is left for topics whose publishers
 do not count (other nodes of a launch file).
 
-Messages without a stamp of their own (an app's ``std_msgs`` outputs) are ``hold``: counted
-at once, timed later by ``stamp_held(t)``, which the runner calls at the end of each slice
-handshake with the slice's sim time. Their time is then the handshake they were collected
-in, the same in every run, not the moment the runner's clock happened to read on arrival.
+Messages without a stamp of their own (``std_msgs`` outputs of apps and of the world) are
+``hold``: counted at once, timed later by ``stamp_held(time_of)``, which the runner calls at
+the end of each slice handshake: the world's by the sim times its step answer lists, the
+apps' by the slice's end. Their time is then the same in every run, not the moment the
+runner's clock happened to read on arrival.
 """
 import threading
 import time
@@ -38,23 +39,26 @@ class Inbox(object):
             self.last_wall = time.monotonic()
             self._cv.notify_all()
 
-    def hold(self, topic, msg, from_world=False):
+    def hold(self, topic, msg, from_world=False, tag=None):
         """An unstamped message, counted now, timed by the next ``stamp_held``."""
         with self._cv:
             self._seq += 1
-            self._held.append((self._seq, topic, msg))
+            self._held.append((self._seq, topic, msg, tag))
             self.counts[topic] = self.counts.get(topic, 0) + 1
             if from_world:
                 self.from_world[topic] = self.from_world.get(topic, 0) + 1
             self.last_wall = time.monotonic()
             self._cv.notify_all()
 
-    def stamp_held(self, t):
-        """Time every held message at t; returns them as [(topic, msg)] in arrival order."""
+    def stamp_held(self, time_of):
+        """Time every held message, in arrival order, by time_of(topic, tag); returns them
+        as [(t, topic, msg)]."""
         with self._cv:
             held, self._held = self._held, []
-            self._buffer.extend((t, seq, topic, msg) for seq, topic, msg in held)
-        return [(topic, msg) for _seq, topic, msg in held]
+        out = [(time_of(topic, tag), seq, topic, msg) for seq, topic, msg, tag in held]
+        with self._cv:
+            self._buffer.extend(out)
+        return [(t, topic, msg) for t, _seq, topic, msg in out]
 
     def take(self):
         """Everything received since the last take, as (t, seq, topic, msg) sorted by

@@ -10,6 +10,7 @@ actions are not applied again (their effects are in the recorded inputs). Time a
 slices of the scenario's ``slice``; after each slice the runner waits until the apps'
 outputs have arrived, as in a live run.
 """
+import collections
 import json
 import math
 import re
@@ -174,11 +175,17 @@ def replay_run(r):
     r.replay_meta = meta
     if r.bag is not None:
         r.write_meta()
-    src = ReplayClock(msgs, lambda topic, m: pubs[topic].publish(m),
+    def publish(topic, m, t):
+        if not getattr(m, '_has_header', True):   # timed by its recorded time (_time_held)
+            r.input_times.setdefault(topic, collections.deque()).append(t)
+        pubs[topic].publish(m)
+    src = ReplayClock(msgs, publish,
                       lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
                       lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC)
     end = r.t0 + float(meta.get('duration', r.sc.duration))
-    r.hold_unstamped = True     # the apps' unstamped outputs: timed at the slice's end, as live
+    # unstamped messages: the recording's by their recorded times, the apps' at the end of
+    # the slice, as live
+    r.input_node, r.hold_unstamped = rospy.get_name(), True
     while True:
         r.check_world()
         r.t = src.step_to(min(end, r.t + r.sc.slice))

@@ -16,6 +16,7 @@ Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scen
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
 """
+import collections
 import json
 import math
 import os
@@ -90,7 +91,9 @@ class Runner(Actions):
         self.app_procs = []        # [(node name, Proc)]
         self.apps_finished = set()
         self.appwatch = None
-        self.hold_unstamped = False  # live, once stepping: apps' unstamped outputs are held
+        self.hold_unstamped = False  # once stepping: unstamped messages are held (_time_held)
+        self.input_node = None     # the caller id of the inputs: the world, or this replay
+        self.input_times = {}      # topic -> deque of sim times of the inputs' unstamped msgs
         self.uncounted = set()     # subscribed topics with publishers that do not count
         self.world_topics = set()  # subscribed topics the world publishes
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
@@ -552,11 +555,13 @@ class Runner(Actions):
     def _cb(self, msg, topic):
         t = self._stamp_of(msg)
         hdr = getattr(msg, '_connection_header', None) or {}
-        world = hdr.get('callerid') == self.world_node
-        if t is None and not world and self.hold_unstamped:
-            # an app's unstamped output: timed at the end of the handshake that collects
-            # it (the same slice in every run), see _stamp_held
-            self.inbox.hold(topic, msg)
+        caller = hdr.get('callerid')
+        world = caller == self.world_node
+        if t is None and self.hold_unstamped:
+            # no stamp: timed at the end of the handshake that collects it, the world's by
+            # its step answer, an app's by the slice (the same in every run): _time_held
+            self.inbox.hold(topic, msg, from_world=world, tag=self.rospy.get_rostime(
+                ).to_sec() if caller == self.input_node else None)
             return
         if t is None:
             t = self.rospy.get_rostime().to_sec()
@@ -567,11 +572,29 @@ class Runner(Actions):
             self._bag_write(topic, msg, t)
 
     def _stamp_held(self):
-        for topic, msg in self.inbox.stamp_held(self.t):
+        for t, topic, msg in self.inbox.stamp_held(self._time_held):
             if self.debug:
-                self.say('  debug: %s at %.3f' % (topic, self.t))
+                self.say('  debug: %s at %.3f' % (topic, t))
             if self.bag is not None:
-                self._bag_write(topic, msg, self.t)
+                self._bag_write(topic, msg, t)
+
+    def _time_held(self, topic, tag):
+        """The time of a held message: an input's (the world's, live; the recording's, in a
+        replay) the sim time it went out at, in order per topic (else, should the world not
+        have said, its arrival); an app's the end of the slice."""
+        if tag is None:
+            return self.t
+        q = self.input_times.get(topic)
+        return q.popleft() if q else tag
+
+    def _note_times(self, r):
+        """The step answer's publication times of the world's unstamped messages."""
+        k = 0
+        for topic, n in zip(r.timed_topics, r.timed_counts):
+            if topic in self.subs:
+                self.input_times.setdefault(topic, collections.deque()).extend(
+                    r.times[k:k + n])
+            k += n
 
     def _bag_write(self, topic, msg, t):
         with self.bag_lock:
@@ -802,7 +825,7 @@ class Runner(Actions):
         self._start_apps()
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
-        self.hold_unstamped = True
+        self.input_node, self.hold_unstamped = self.world_node, True
         self._subscribe_all()
         self._sync()
         self._drain()
@@ -823,6 +846,7 @@ class Runner(Actions):
         if not r.success:
             raise RunError('the world refused the step to sim time %.3f s: %s'
                            % (until, r.status_message), self.world_log())
+        self._note_times(r)
         self.published = {t: c - d for t, c, d in zip(r.topics, r.counts, r.dropped)}
         self.dropped = {t: d for t, d in zip(r.topics, r.dropped) if d}
         return r

@@ -234,7 +234,7 @@ def test_missing_topic_and_field_are_errors_naming_them(tmp_path):
 
 def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
     """The slice handshake has no wall-clock quiet period to miss: the example with an app
-    gives the same verdicts and the same recorded messages, in the same order, while two
+    gives the same verdicts and the same recorded messages at the same times, while two
     CPU hogs (stress-ng --cpu 2) compete for the machine's cores."""
     import shutil
     stress = shutil.which('stress-ng')
@@ -257,6 +257,6 @@ def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
     a.pop('/scenario/meta', None)
     b.pop('/scenario/meta', None)
     assert sorted(a) == sorted(b)
-    for topic in a:
-        assert [m for _t, m in a[topic]] == [m for _t, m in b[topic]], \
+    for topic in a:        # the messages and their recorded times (headerless ones too)
+        assert a[topic] == b[topic], \
             '%s differs under load (%d vs %d messages)' % (topic, len(a[topic]), len(b[topic]))

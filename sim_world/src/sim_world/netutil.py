@@ -6,10 +6,15 @@ port 0, read back, released). Another process may take it before the caller bind
 callers that start a master retry once on a new port (testing_instance.runner).
 ``free_port(start)``: the first port from ``start`` on (200 tried) that can be bound now,
 for callers that want ports in a known range (pytest-xdist workers, bench/camera).
+
+``wait_for_service(name, timeout)``: rospy.wait_for_service without its 0.3 s between looks
+(a node waiting for the world's services started up to 0.3 s late: the phone's spawner and
+the testing instance, on every scenario's start-up): asks the master every 20 ms.
 """
 import socket
+import time
 
-__all__ = ['free_port']
+__all__ = ['free_port', 'wait_for_service']
 
 
 def free_port(start=None, host='127.0.0.1'):
@@ -30,3 +35,25 @@ def free_port(start=None, host='127.0.0.1'):
         finally:
             s.close()
     raise RuntimeError('no free port in %d..%d' % (start, start + 199))
+
+
+def wait_for_service(name, timeout=None, poll=0.02, caller='/wait_for_service'):
+    """True once the master knows the service ``name`` (a global name), False after
+    ``timeout`` s (None: no limit) or when rospy shuts down."""
+    import rosgraph
+    try:
+        from rospy.core import is_shutdown
+    except ImportError:  # pragma: no cover
+        def is_shutdown():
+            return False
+    master = rosgraph.Master(caller)
+    deadline = None if timeout is None else time.monotonic() + float(timeout)
+    while True:
+        try:
+            master.lookupService(name)
+            return True
+        except (rosgraph.MasterException, OSError):
+            pass
+        if is_shutdown() or (deadline is not None and time.monotonic() >= deadline):
+            return False
+        time.sleep(poll)

@@ -117,9 +117,8 @@ def main(argv=None):
             return 1
     sdf = a.sdf or (not a.urdf and xml.lstrip().find('<sdf') >= 0)
     srv = '/gazebo/spawn_sdf_model' if sdf else '/gazebo/spawn_urdf_model'
-    try:
-        rospy.wait_for_service(srv, timeout=a.timeout)
-    except rospy.ROSException:
+    from .netutil import wait_for_service
+    if not wait_for_service(srv, timeout=a.timeout, caller=rospy.get_name()):
         rospy.logfatal('spawn_model: service %s did not appear within %g s (is sim_world '
                        'running?)' % (srv, a.timeout))
         return 1

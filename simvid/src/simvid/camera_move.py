@@ -53,12 +53,11 @@ class CameraMove(object):
         if self.linear_scaler == 0 or self.angular_scaler == 0:
             raise ValueError('linear_scaler and angular_scaler must not be zero')
         if wait:
+            from sim_world.netutil import wait_for_service
             for srv in ('/gazebo/get_model_state', '/gazebo/set_model_state'):
-                try:
-                    rospy.wait_for_service(srv, timeout=5.0)
-                except rospy.ROSException:
+                if not wait_for_service(srv, timeout=5.0, caller=rospy.get_name()):
                     rospy.logwarn('camera_move: waiting for %s (is sim_world running?)', srv)
-                    rospy.wait_for_service(srv)
+                    wait_for_service(srv, caller=rospy.get_name())
         self.get_state = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState,
                                             persistent=False)
         self.set_state = rospy.ServiceProxy('/gazebo/set_model_state', SetModelState,

@@ -27,6 +27,8 @@ import tempfile
 import threading
 import time
 
+from sim_world.netutil import wait_for_service
+
 from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
 from .appwatch import AppHung, AppWatch
@@ -318,7 +320,11 @@ class Runner(Actions):
         self._proxies = {}
         self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
         self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
-        rospy.wait_for_service('/gazebo/step_world', timeout=self.sc.timeout)
+        if not wait_for_service('/gazebo/step_world', timeout=self.sc.timeout,
+                                caller=rospy.get_name()):
+            self._check_world()
+            raise RunError('the world did not offer /gazebo/step_world within %g s'
+                           % self.sc.timeout, self.world_log())
         import rosgraph
         try:
             _p, _s, services = rosgraph.Master('/scenario_runner').getSystemState()

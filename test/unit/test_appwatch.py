@@ -59,7 +59,7 @@ def test_an_idle_app_has_answered_at_once(spawn):
 def test_the_runner_holding_messages_counts_as_not_answered(spawn):
     pending = ['runner: /x']
     w = AppWatch([('/idle', spawn('import time; time.sleep(60)'))],
-                 own_pending=lambda: pending[0], limit=0.3)
+                 own_pending=lambda queues: pending[0], limit=0.3)
     w.wait(sleeper)
     assert w.waited >= 0.3
     pending[0] = None

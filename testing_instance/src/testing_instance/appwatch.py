@@ -41,10 +41,11 @@ class AppHung(Exception):
 
 
 class AppWatch(object):
-    def __init__(self, apps, own_pending=lambda: None, hang_after=10.0, limit=2.0, give_up=3,
+    def __init__(self, apps, own_pending=lambda queues: None, hang_after=10.0, limit=2.0, give_up=3,
                  warn=print, clock=time.monotonic, exit_wait=10.0):
-        """apps: [(name, Proc)]; own_pending(): a reason string while the runner itself
-        still holds undelivered app messages, else None."""
+        """apps: [(name, Proc)]; own_pending(queues): a reason string while the runner
+        itself still holds undelivered app messages, else None (queues: the same
+        procs.tcp_queues() snapshot the apps were judged by)."""
         self.apps = list(apps)
         self.own_pending = own_pending
         self.hang_after = float(hang_after)
@@ -151,8 +152,9 @@ class AppWatch(object):
             return
         t0 = self.clock()
         while True:
-            busy = self._busy(procs.tcp_queues())
-            own = self.own_pending() if not busy else None
+            queues = procs.tcp_queues()
+            busy = self._busy(queues)
+            own = self.own_pending(queues) if not busy else None
             if not busy and own is None:
                 for name, _p in self.apps:
                     self.misses.pop(name, None)

@@ -219,13 +219,20 @@ def socket_inodes(pid):
 
 def tcp_queues():
     """{socket inode: (bytes queued to send, bytes received and not yet read)} for every
-    established TCP socket of this network namespace."""
+    established TCP socket of this network namespace with bytes in a queue (absent: none).
+    The appwatch reads this many times a slice. Each file costs the kernel a walk of the
+    whole TCP hash table (1.1 ms here, even for an empty tcp6), so tcp6 is read only when
+    ROS uses IPv6 (ROS_IPV6=on; otherwise rospy and roscpp connect over IPv4)."""
     out = {}
-    for name in ('/proc/net/tcp', '/proc/net/tcp6'):
+    names = ('/proc/net/tcp', '/proc/net/tcp6') if os.environ.get('ROS_IPV6') == 'on' \
+        else ('/proc/net/tcp',)
+    for name in names:
         try:
             with open(name) as f:
                 next(f, None)
                 for ln in f:
+                    if ' 00000000:00000000 ' in ln:             # both queues empty
+                        continue
                     p = ln.split()
                     if len(p) < 10 or p[3] != '01':           # ESTABLISHED only
                         continue

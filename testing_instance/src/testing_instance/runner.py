@@ -647,7 +647,7 @@ class Runner(Actions):
         self._stamp_held()
         self.sync_wall += time.monotonic() - w0
 
-    def _own_pending(self):
+    def _own_pending(self, q=None):
         """Why the runner (or the world) still holds app messages not yet delivered, or
         None: a subscription deserialised more than reached the inbox, or bytes wait on a
         socket of this process or of the world node."""
@@ -657,7 +657,7 @@ class Runner(Actions):
                                                                         ())))
             if n > self.inbox.counts.get(topic, 0):
                 return 'runner: %s' % topic
-        q = procs.tcp_queues()
+        q = procs.tcp_queues() if q is None else q
         pids = [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
         for pid in pids:
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):

@@ -219,18 +219,13 @@ def publisher(topic, msg_type, queue_size=10, inline_local=False, **kw):
                     inline_local=inline_local)
 
 
-def handed_to(subscriber, topic_manager=None):
-    """{topic: (handed, dropped)} over this node's publisher connections to the node
-    ``subscriber`` (its caller id) that go through :class:`NoYieldConnection`: how many
-    messages each topic handed to that subscriber since its connection opened, and how
-    many of those a full queue dropped. Topics of publishers outside :func:`no_yield` are
-    not listed (their counts are unknown)."""
+def _connections_to(subscriber, topic_manager=None):
+    """(topic, NoYieldConnection) of this node's publishers to the node ``subscriber``."""
     if topic_manager is None:
         from rospy.impl.registration import get_topic_manager
         topic_manager = get_topic_manager()
-    out = {}
     if topic_manager is None or not subscriber:
-        return out
+        return
     for topic, _typ in topic_manager.get_publications():
         impl = topic_manager.get_publisher_impl(topic)
         if impl is None:
@@ -238,9 +233,20 @@ def handed_to(subscriber, topic_manager=None):
         for c in list(impl.connections):
             if isinstance(c, NoYieldConnection) and \
                     getattr(c, 'endpoint_id', None) == subscriber:
-                h, d = out.get(topic, (0, 0))
-                with c._lock:
-                    out[topic] = (h + c.handed, d + c.dropped)
+                yield topic, c
+
+
+def handed_to(subscriber, topic_manager=None):
+    """{topic: (handed, dropped)} over this node's publisher connections to the node
+    ``subscriber`` (its caller id) that go through :class:`NoYieldConnection`: how many
+    messages each topic handed to that subscriber since its connection opened, and how
+    many of those a full queue dropped. Topics of publishers outside :func:`no_yield` are
+    not listed (their counts are unknown)."""
+    out = {}
+    for topic, c in _connections_to(subscriber, topic_manager):
+        h, d = out.get(topic, (0, 0))
+        with c._lock:
+            out[topic] = (h + c.handed, d + c.dropped)
     return out
 
 
@@ -251,21 +257,11 @@ def take_times(subscriber, topic_manager=None):
     connections opened later are timed from their first message on)."""
     if subscriber:
         _timed_subscribers.add(subscriber)
-    if topic_manager is None:
-        from rospy.impl.registration import get_topic_manager
-        topic_manager = get_topic_manager()
     out = {}
-    if topic_manager is None or not subscriber:
-        return out
-    for topic, _typ in topic_manager.get_publications():
-        impl = topic_manager.get_publisher_impl(topic)
-        if impl is None:
-            continue
-        for c in list(impl.connections):
-            if isinstance(c, NoYieldConnection) and c.unstamped and \
-                    getattr(c, 'endpoint_id', None) == subscriber:
-                with c._lock:
-                    got, c.times = c.times, []
-                if got:
-                    out.setdefault(topic, []).extend(got)
+    for topic, c in _connections_to(subscriber, topic_manager):
+        if c.unstamped:
+            with c._lock:
+                got, c.times = c.times, []
+            if got:
+                out.setdefault(topic, []).extend(got)
     return out

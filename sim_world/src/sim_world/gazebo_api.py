@@ -11,6 +11,7 @@ Topics: /clock, /gazebo/model_states, /gazebo/set_model_state (subscriber), /tf,
 Every service answers ``success: false`` with a ``status_message`` naming the bad input
 and logs one line; the world keeps running with its models.
 """
+from collections import OrderedDict
 import math
 import threading
 import time
@@ -94,13 +95,8 @@ class GazeboRosApi(object):
         self.tf_static_pub = fastpub.publisher('/tf_static', TFMessage, queue_size=100,
                                                latch=True)
         self._last_clock = None
-        # /clock goes out right before sensors publish, so a subscriber's rospy time is the
-        # frame's stamp when the frame arrives (rostest's hztest measures rates that way)
-        world.before_plugin_updates.append(lambda t: self.publish_clock())
-        world.on_model_added.append(self._model_added)
-        world.on_model_deleted.append(self._model_deleted)
-        for m in world.models.values():
-            self._model_added(m)
+        self.spawned = OrderedDict()     # model name -> its SpawnModel request (reload_world)
+        self.attach(world)
         self.services = [
             rospy.Service('/gazebo/get_model_state', GetModelState, self.get_model_state),
             rospy.Service('/gazebo/set_model_state', SetModelState, self.set_model_state),
@@ -115,6 +111,24 @@ class GazeboRosApi(object):
         ]
         self.set_sub = rospy.Subscriber('/gazebo/set_model_state', ModelState,
                                         self._set_state_topic, queue_size=100)
+
+    def attach(self, world, spawned=None):
+        """Serve ``world`` from now on (sim_world's /gazebo/reload_world swaps in a new one;
+        the services and topics stay, the state kept for the old world goes). ``spawned``:
+        the SpawnModel requests that made its spawned models."""
+        self.world = world
+        self.step_until = None
+        self._last_clock = None
+        self._last_tf_stamp = None
+        self._static_tf = {}
+        self.spawned = OrderedDict(spawned or ())
+        # /clock goes out right before sensors publish, so a subscriber's rospy time is the
+        # frame's stamp when the frame arrives (rostest's hztest measures rates that way)
+        world.before_plugin_updates.append(lambda t: self.publish_clock())
+        world.on_model_added.append(self._model_added)
+        world.on_model_deleted.append(self._model_deleted)
+        for m in world.models.values():
+            self._model_added(m)
 
     # -- services --------------------------------------------------------------------------
     def get_model_state(self, req):
@@ -170,6 +184,7 @@ class GazeboRosApi(object):
             rospy.logerr(msg)
             return SpawnModelResponse(False, msg)
         model = self.world.models.get(req.model_name)
+        self.spawned[req.model_name] = (kind, req)
         if model is not None:
             rospy.loginfo('spawned model %s (%d links, %d plugins)', model.name,
                           len(model.links), len(model.plugins))
@@ -185,6 +200,7 @@ class GazeboRosApi(object):
         try:
             with self.world.lock:
                 self.world.delete_model(req.model_name)
+            self.spawned.pop(req.model_name, None)
         except KeyError as e:
             msg = 'DeleteModel: %s' % e.args[0]
             rospy.logwarn(msg)

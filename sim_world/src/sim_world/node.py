@@ -16,6 +16,7 @@ already set. Besides the Gazebo API (sim_world.gazebo_api) it serves /gazebo/set
 import os
 import sys
 import threading
+import time
 
 import rospy
 import rospy.core
@@ -67,18 +68,16 @@ def main(argv=None):
     else:
         seed = None
     try:
-        world = World(physics=engine, step_size=step, gravity=desc.gravity, ros_enabled=True,
-                      seed=seed, logger=_RospyLogger())
+        host = WorldHost(world_file, engine, step, desc.gravity, rtf, seed,
+                         paused=bool(rospy.get_param('~paused', False)),
+                         publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
     except ValueError as e:
         rospy.logfatal('sim_world: %s' % e)
         return 1
-    try:
-        world.load_world_file(world_file)
     except ModelError as e:
         rospy.logfatal('sim_world: cannot load world file %s: %s' % (world_file, e))
         return 1
-    api = GazeboRosApi(world, paused=bool(rospy.get_param('~paused', False)))
-    services = WorldServices(world)  # noqa: F841 - keeps the services alive
+    world = host.world
     rospy.loginfo('sim_world: world %r from %s, %d models, physics %s, step %g s, '
                   'real_time_factor %g, seed %d', world.name, world_file, len(world.models),
                   engine, step, rtf, world.seed)
@@ -90,8 +89,7 @@ def main(argv=None):
 
     def world_thread():
         try:
-            run_loop(world, api, real_time_factor=rtf,
-                     publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
+            host.run()
         except Exception as e:  # noqa: BLE001 - say what stopped the world, then stop the node
             if rospy.is_shutdown() or rospy.core.is_shutdown_requested():
                 # the node is shutting down (Ctrl-C, roslaunch's end, rostest's teardown)
@@ -104,13 +102,198 @@ def main(argv=None):
             rospy.logfatal('sim_world: the world loop stopped: %s: %s' % (type(e).__name__, e))
             rospy.signal_shutdown('world loop failed')
         finally:
-            world.shutdown()
+            host.world.shutdown()
 
     thread = threading.Thread(target=world_thread, name='sim_world_loop', daemon=True)
     thread.start()
     rospy.spin()
     thread.join(timeout=10.0)
     return 1 if failed else 0
+
+
+POSE_KEYS = ('x', 'y', 'z', 'R', 'P', 'Y')
+
+
+class WorldHost(object):
+    """The node's World, the ROS API serving it and the loop stepping it. On
+    /gazebo/reload_world (mobile_device_sim/ReloadWorld) it starts the world over in this
+    process: the old World shuts down (its plugins unregister every topic and service), a
+    new one loads the same file with the requested seed, the models spawned before the
+    first reload are spawned again from their requests, and the API serves the new World.
+    What a fresh node would have is what the reloaded one has; a farm's warm world saves
+    the master, roslaunch, Python and the imports (testing_instance's warm farm)."""
+
+    def __init__(self, world_file, engine, step, gravity, rtf, seed, paused=False,
+                 publish_rate=100.0):
+        self.world_file, self.engine, self.step, self.gravity = \
+            world_file, engine, step, gravity
+        self.rtf, self.publish_rate = float(rtf), publish_rate
+        self.world = self.build(seed)
+        self.api = GazeboRosApi(self.world, paused=paused)
+        self.services = WorldServices(self.world)
+        self.start_models = None          # [(name, kind, SpawnModel request)]: first reload
+        self._pending = None              # (plan, done Event, result box) for the loop
+        self._one = threading.Lock()
+        from mobile_device_sim.srv import ReloadWorld
+        self.reload_srv = rospy.Service('/gazebo/reload_world', ReloadWorld, self.reload)
+
+    def build(self, seed):
+        world = World(physics=self.engine, step_size=self.step, gravity=self.gravity,
+                      ros_enabled=True, seed=seed, logger=_RospyLogger())
+        world.load_world_file(self.world_file)
+        return world
+
+    # -- the loop thread ---------------------------------------------------------------------
+    def run(self):
+        """The world thread: step until ROS shuts down, reloading between steps when asked."""
+        while not rospy.is_shutdown():
+            run_loop(self.world, self.api, real_time_factor=self.rtf,
+                     publish_rate=self.publish_rate, should_stop=self._stop_loop)
+            if self._pending is not None and not rospy.is_shutdown():
+                self._do_reload(*self._pending)
+
+    def _stop_loop(self):
+        return self._pending is not None or rospy.is_shutdown()
+
+    # -- /gazebo/reload_world ----------------------------------------------------------------
+    def reload(self, req):
+        from mobile_device_sim.srv import ReloadWorldResponse
+        t0 = time.monotonic()
+        with self._one:
+            if self.api.step_until is not None:
+                return self._refused(ReloadWorldResponse, 'a step_world call is running')
+            try:
+                plan = self._plan(req)
+            except ValueError as e:
+                return self._refused(ReloadWorldResponse, str(e))
+            done, box = threading.Event(), {}
+            self._pending = (plan, done, box)
+            self.api.reset_anchor.set()           # wakes a paused loop at once
+            while not done.wait(0.1):
+                if rospy.is_shutdown():
+                    return self._refused(ReloadWorldResponse, 'the node is shutting down')
+        ok, msg = box['result']
+        return ReloadWorldResponse(ok, msg, time.monotonic() - t0)
+
+    @staticmethod
+    def _refused(cls, why):
+        msg = 'ReloadWorld: %s; nothing changed' % why
+        rospy.logerr(msg)
+        return cls(False, msg, 0.0)
+
+    def _plan(self, req):
+        """What a reload request asks for, checked before anything is torn down
+        (ValueError: the one line saying what is wrong)."""
+        import math
+        import yaml
+        seed = int(req.seed)
+        if seed < -1:
+            raise ValueError('seed must be >= 0 (or -1: keep %d), got %d'
+                             % (self.world.seed, seed))
+        seed = self.world.seed if seed == -1 else seed
+        rtf = float(req.real_time_factor)
+        if math.isnan(rtf):
+            raise ValueError('real_time_factor must be a number, got nan')
+        rtf = self.rtf if rtf < 0 else rtf
+        start = self.start_models
+        if start is None:                 # the first reload: what the launch spawned
+            start = [(n, kind, r) for n, (kind, r) in self.api.spawned.items()
+                     if n in self.world.models]
+        try:
+            poses = yaml.safe_load(req.start_poses) if req.start_poses.strip() else {}
+        except yaml.YAMLError as e:
+            raise ValueError('start_poses is not YAML: %s' % str(e).replace('\n', ' '))
+        if not isinstance(poses, dict):
+            raise ValueError('start_poses must be a mapping {model: {x: .., Y: ..}}, got %r'
+                             % (poses,))
+        names = [n for n, _k, _r in start]
+        for name, o in poses.items():
+            if name not in names:
+                raise ValueError('start_poses: no remembered model %r (these start again: %s)'
+                                 % (name, ', '.join(names) or 'none'))
+            if not isinstance(o, dict) or set(o) - set(POSE_KEYS):
+                raise ValueError('start_poses: %s: give a mapping of %s, got %r'
+                                 % (name, ', '.join(POSE_KEYS), o))
+            for k, v in o.items():
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or \
+                        not math.isfinite(v):
+                    raise ValueError('start_poses: %s.%s must be a finite number, got %r'
+                                     % (name, k, v))
+        return dict(seed=seed, rtf=rtf, start=start, poses=poses)
+
+    def _do_reload(self, plan, done, box):
+        """In the loop thread, between steps: the old World goes, a new one comes."""
+        try:
+            box['result'] = self._swap(plan)
+        except Exception as e:  # noqa: BLE001 - said to the caller and in the log
+            box['result'] = (False, 'ReloadWorld: %s: %s' % (type(e).__name__, e))
+            rospy.logerr(box['result'][1])
+        finally:
+            self._pending = None
+            done.set()
+
+    def _swap(self, plan):
+        from .spawn import spawn_xml
+        t0 = time.monotonic()
+        self.start_models = plan['start']
+        old = self.world
+        with old.lock:
+            old.shutdown()           # plugins unregister: the new ones start afresh
+
+        def rebuild(seed, poses):
+            world = self.build(seed)
+            spawned = []
+            for name, kind, req in plan['start']:
+                req2 = _with_pose(req, poses.get(name))
+                ok, msg = spawn_xml(world, kind, name, req2.model_xml, req2.robot_namespace,
+                                    req2.initial_pose, req2.reference_frame)
+                if not ok:
+                    world.shutdown()
+                    raise RuntimeError(msg)
+                spawned.append((name, (kind, req2)))
+            return world, spawned
+        try:
+            world, spawned = rebuild(plan['seed'], plan['poses'])
+        except Exception:
+            # the old world is gone: serve it again as it started (then say what failed)
+            world, spawned = rebuild(old.seed, {})
+            self.world = world
+            self.api.attach(world, spawned)
+            self.api.paused = True
+            self.services.attach(world)
+            raise
+        self.rtf = plan['rtf']
+        self.world = world
+        self.api.attach(world, spawned)
+        self.api.paused = True
+        self.services.attach(world)
+        rospy.set_param('~seed', str(world.seed))
+        rospy.set_param('~real_time_factor', self.rtf)
+        msg = ('ReloadWorld: world %r started over with seed %d (%d models, %d spawned again), '
+               'real_time_factor %g, in %.3f s' % (world.name, world.seed, len(world.models),
+                                                  len(spawned), self.rtf,
+                                                  time.monotonic() - t0))
+        rospy.loginfo(msg)
+        return True, msg
+
+
+def _with_pose(req, over):
+    """A copy of SpawnModel request ``req`` whose initial pose has the values of ``over``
+    ({x, y, z, R, P, Y}); the quaternion is kept exactly unless R, P or Y is given."""
+    import copy
+    from .transforms import Pose
+    if not over:
+        return req
+    req = copy.deepcopy(req)
+    p = req.initial_pose.position
+    p.x, p.y, p.z = (float(over.get(k, v)) for k, v in zip('xyz', (p.x, p.y, p.z)))
+    if set(over) & set('RPY'):
+        rpy = Pose.from_msg(req.initial_pose).rpy()
+        rpy = [float(over.get(k, v)) for k, v in zip('RPY', rpy)]
+        q = Pose.from_xyz_rpy((0, 0, 0), rpy).q
+        o = req.initial_pose.orientation
+        o.x, o.y, o.z, o.w = (float(v) for v in q)
+    return req
 
 
 class _RospyLogger(object):

@@ -499,6 +499,12 @@ class World(object):
                 except Exception:  # noqa: BLE001
                     pass
         self.plugins.clear()
+        if self._renderer is not None and hasattr(self._renderer, 'close'):
+            try:
+                self._renderer.close()   # its GL objects leave the shared context
+            except Exception as e:  # noqa: BLE001 - a world going away must go away
+                self.log.warning('closing the renderer: %s', e)
+            self._renderer = None
         close = getattr(self.physics, 'close', None)
         if close is not None:
             close()   # frees Bullet's native client now, not at garbage collection

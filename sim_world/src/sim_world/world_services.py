@@ -30,13 +30,21 @@ def environment_msg(env, stamp):
 
 class WorldServices(object):
     def __init__(self, world):
-        self.world = world
-        self.env_pub = fastpub.publisher('/gazebo/environment', EnvironmentMsg, queue_size=10,
-                                         latch=True)
+        self.env_pub = None
+        self.attach(world)
         self.services = [
             rospy.Service('/gazebo/set_environment', SetEnvironment, self.set_environment),
             rospy.Service('/gazebo/set_sensor_fault', SetSensorFault, self.set_sensor_fault),
         ]
+
+    def attach(self, world):
+        """Serve ``world`` (a reloaded world: /gazebo/environment starts over, its header
+        sequence numbers too, as in a fresh node)."""
+        self.world = world
+        if self.env_pub is not None:
+            self.env_pub.unregister()
+        self.env_pub = fastpub.publisher('/gazebo/environment', EnvironmentMsg, queue_size=10,
+                                         latch=True)
         self.publish_environment()
 
     def publish_environment(self):

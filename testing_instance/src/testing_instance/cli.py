@@ -2,11 +2,11 @@
 import argparse
 import glob
 import os
-import subprocess
 import sys
 import time
 
 from .runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, run_file
+from .yamlsrc import ScenarioError
 
 __all__ = ['main', 'replay_main', 'farm']
 
@@ -34,7 +34,11 @@ def _parser(prog):
     p.add_argument('--replay', metavar='BAG|MCAP', help='play a recording (rosbag or MCAP) '
                    'as the clock source, no world; the apps and expectations run again')
     p.add_argument('--jobs', type=int, default=0, metavar='N',
-                   help='run the scenarios N at a time, each with its own master port')
+                   help='run the scenarios N at a time: N workers, each with its own master '
+                   'and a warm world that serves scenario after scenario on the same world '
+                   '(reset between them with /gazebo/reload_world)')
+    p.add_argument('--cold', action='store_true', help='with --jobs or --sweep: a fresh '
+                   'master and world for every scenario instead of warm worlds')
     p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
                    '(0-based; a CI matrix or several machines)')
     # sweeps and the Ray farm (testing_instance.sweep / .cluster, issue 21)
@@ -119,6 +123,10 @@ def _shard(files, spec):
 def main(argv=None, prog='run_scenario'):
     import rospy
     argv = rospy.myargv(sys.argv if argv is None else argv)[1:]
+    if argv == ['--warm-worker']:       # a farm's worker (testing_instance.warm)
+        from .warm import worker_main
+        _graph_gone[0] = True
+        return worker_main()
     a = _parser(prog).parse_args(argv)
     if a.gtest_output and a.gtest_output.startswith('xml:') and not a.junit:
         a.junit = a.gtest_output[4:]
@@ -138,15 +146,11 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    values = None
-    if a.set:
-        from .params import declared, load_raw, parse_set
-        from .scenario import ScenarioError
-        try:
-            values = parse_set(a.set, declared(load_raw(files[0]), files[0]), files[0])
-        except ScenarioError as e:
-            print('ERROR ' + '\n  '.join(e.problems))
-            return EXIT_ERROR
+    try:
+        values = _values(a, files[0])
+    except ScenarioError as e:
+        print('ERROR ' + '\n  '.join(e.problems))
+        return EXIT_ERROR
     res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
                    junit=a.junit, real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
                    report=a.report, port=a.port)
@@ -159,6 +163,41 @@ def main(argv=None, prog='run_scenario'):
                                        max(1, len(res.verdicts)), len(errs), ', '.join(errs),
                                        len(fails), ', '.join(fails)))
     return res.exit_code
+
+
+def _values(a, path):
+    """--set NAME=VALUE of parsed arguments ``a`` for file ``path`` (None without)."""
+    if not a.set:
+        return None
+    from .params import declared, parse_set
+    from .yamlsrc import read
+    return parse_set(a.set, declared(read(path), path), path)
+
+
+def run_argv(argv, warm=None, out=None):
+    """Run one run_scenario command line (a single scenario) in this process, in the warm
+    world ``warm`` (a testing_instance.warm.WarmHost); the exit code."""
+    out = out or print
+    a = _parser('run_scenario').parse_args(list(argv))
+    files = _expand(a.files)
+    try:
+        values = _values(a, files[0])
+    except ScenarioError as e:
+        out('ERROR ' + '\n  '.join(e.problems))
+        return EXIT_ERROR
+    res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
+                   junit=a.junit, real_time_factor=a.rtf, report=a.report, warm=warm,
+                   out=out)
+    return res.exit_code
+
+
+def world_key_of(argv):
+    """The world (testing_instance.runner.world_key) a run_scenario command line needs."""
+    from .runner import world_key
+    from .scenario import load
+    a = _parser('run_scenario').parse_args(list(argv))
+    path = _expand(a.files)[0]
+    return world_key(load(path, values=_values(a, path)), a.report)
 
 
 _graph_gone = [False]     # this process's run has torn down the master it registered with
@@ -189,45 +228,35 @@ def replay_main(argv=None):
 
 
 def farm(files, jobs, a, out=print):
-    """Run every file in its own run_scenario process (own master port), ``jobs`` at a time;
-    print a summary table. Exit: the worst of the runs."""
-    node = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
-        os.path.abspath(__file__)))), 'nodes', 'run_scenario')
-    pending = list(files)
-    running = []
+    """Run every file ``jobs`` at a time (testing_instance.warm.Pool: warm worlds, or with
+    --cold a run_scenario process and master per file); print a summary table. Exit: the
+    worst of the runs."""
+    from .warm import Pool
+    items = []
+    for f in files:
+        argv = [f]
+        if a.seed is not None:
+            argv += ['--seed', str(a.seed)]
+        if a.rtf is not None:
+            argv += ['--real-time-factor', str(a.rtf)]
+        name = os.path.splitext(os.path.basename(f))[0]
+        if a.junit:
+            os.makedirs(a.junit, exist_ok=True)
+            argv += ['--junit', os.path.join(a.junit, name + '.xml')]
+        if a.report:
+            argv += ['--report', os.path.join(a.report, name)]
+        if a.record:                    # a folder: <name>.bag
+            os.makedirs(a.record[0], exist_ok=True)
+            argv += ['--record', os.path.join(a.record[0], name + '.bag')]
+        items.append((f, argv))
     results = []
     wall0 = time.monotonic()
-    while pending or running:
-        while pending and len(running) < jobs:
-            f = pending.pop(0)
-            cmd = [sys.executable, node, f]
-            if a.seed is not None:
-                cmd += ['--seed', str(a.seed)]
-            if a.rtf is not None:
-                cmd += ['--real-time-factor', str(a.rtf)]
-            name = os.path.splitext(os.path.basename(f))[0]
-            if a.junit:
-                os.makedirs(a.junit, exist_ok=True)
-                cmd += ['--junit', os.path.join(a.junit, name + '.xml')]
-            if a.report:
-                cmd += ['--report', os.path.join(a.report, name)]
-            if a.record:                    # a folder: <name>.bag
-                os.makedirs(a.record[0], exist_ok=True)
-                cmd += ['--record', os.path.join(a.record[0], name + '.bag')]
-            env = dict(os.environ)
-            env.pop('ROS_MASTER_URI', None)    # each job starts its own master (free port)
-            p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                 env=env, text=True)
-            running.append((f, p, time.monotonic()))
-        for item in list(running):
-            f, p, t0 = item
-            if p.poll() is not None:
-                text = p.stdout.read()
-                running.remove(item)
-                results.append((f, p.returncode, time.monotonic() - t0, text))
-                for ln in text.splitlines():
-                    out('[%s] %s' % (os.path.basename(f), ln))
-        time.sleep(0.02)
+
+    def done(f, rc, wall, text):
+        results.append((f, rc, wall, text))
+        for ln in text.splitlines():
+            out('[%s] %s' % (os.path.basename(f), ln))
+    Pool(jobs, warm=not a.cold).run(items, lambda f, rc, text, wall: done(f, rc, wall, text))
     status = {EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}
     out('')
     out('%-40s %-6s %8s %s' % ('scenario', 'result', 'wall s', 'expectations'))

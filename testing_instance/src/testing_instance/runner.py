@@ -58,7 +58,8 @@ __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS',
 
 class Runner(Actions):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
-                 attach=False, replay=None, out=None, run_dir=None, port=None, report=None):
+                 attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
+                 warm=None):
         self.sc = scenario
         self.seed = scenario.seed if seed is None else int(seed)
         self.rtf = scenario.real_time_factor if real_time_factor is None \
@@ -71,6 +72,7 @@ class Runner(Actions):
         self.own_dir = run_dir is None
         self.run_dir = run_dir or tempfile.mkdtemp(prefix='scenario_')
         self.port = port
+        self.warm = warm if not (self.attach or replay) else None  # a WarmHost (warm.py)
         self.procs = []
         self.world_proc = None
         self.inbox = Inbox()
@@ -135,6 +137,8 @@ class Runner(Actions):
         self.out(text)
 
     def world_log(self):
+        if self.warm is not None:
+            return self.warm.log_tail()
         if self.world_proc is not None:
             return _tail(self.world_proc.log_path)
         return []
@@ -149,29 +153,18 @@ class Runner(Actions):
         env['PYTHONUNBUFFERED'] = '1'
         return env
 
+    def launch_args(self):
+        return launch_args(self.sc, self.seed, self.rtf, self.report_dir)
+
+    def start_pose(self):
+        return start_pose(self.sc)
+
+    def world_key(self):
+        return world_key(self.sc, self.report_dir)
+
     def _launch_world(self):
-        w = self.sc.world
-        launch = w.get('launch', 'office')
-        path = LAUNCHES.get(launch) or self.sc.resolve(launch)
-        if not os.path.isfile(path):
-            raise RunError('world.launch: no launch file %s (expected office or a path to a '
-                           '.launch file)' % path)
-        args = ['paused:=true', 'seed:=%d' % self.seed,
-                'real_time_factor:=%g' % self.rtf, 'physics:=%s' % w.get('physics', 'ode')]
-        if launch == 'office':
-            # the report shows the spectator view: the flycam at 1 frame per sim second
-            args += ['flycam:=true', 'flycam_rate:=1'] if self.report_dir else ['flycam:=false']
-            ph = self.sc.phones[0]
-            if 'position' in ph:
-                args += ['phone_x:=%r' % ph['position'][0], 'phone_y:=%r' % ph['position'][1],
-                         'phone_z:=%r' % ph['position'][2]]
-            if 'rpy' in ph:
-                args.append('phone_yaw:=%r' % ph['rpy'][2])
-        if 'max_step_size' in w:
-            args.append('max_step_size:=%r' % w['max_step_size'])
-        for k, v in (w.get('args') or {}).items():
-            args.append('%s:=%s' % (k, str(v).lower() if isinstance(v, bool) else v))
-        cmd = ['roslaunch', '--wait' if False else '-p', str(self.port), path] + args
+        path, args = self.launch_args()
+        cmd = ['roslaunch', '-p', str(self.port), path] + args
         self.world_proc = _Proc(cmd, self._env(), os.path.join(self.run_dir, 'world.log'))
         self.procs.append(self.world_proc)
 
@@ -295,7 +288,9 @@ class Runner(Actions):
         os.environ.update({k: v for k, v in self._env().items()
                            if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
         import rospy
-        rospy.init_node('scenario_runner', disable_signals=True)
+        import rospy.core
+        if not rospy.core.is_initialized():      # a warm worker's runners share the node
+            rospy.init_node('scenario_runner', disable_signals=True)
         self.rospy = rospy
 
     def _world_settings(self):
@@ -409,6 +404,9 @@ class Runner(Actions):
     def _find_watched(self):
         """The master and the world node below roslaunch: watched by pid (roslaunch keeps
         running when its master dies)."""
+        if self.warm is not None:
+            self.watch.update(self.warm.watched())
+            return
         if self.world_proc is None:
             return
         for pid in procs.descendants(self.world_proc.p.pid)[1:]:
@@ -788,7 +786,11 @@ class Runner(Actions):
 
     def _start_world(self):
         deadline = time.monotonic() + min(self.sc.timeout, 120.0)
-        if not self.attach:
+        if self.warm is not None:
+            # a farm's warm world: started over (or launched, for a new world) at sim time 0
+            self.warm.prepare(self, deadline)
+            self.world_proc = self.warm.launch
+        elif not self.attach:
             for attempt in (1, 2):
                 if self.port is None or attempt == 2:
                     self.port = free_port()
@@ -941,12 +943,23 @@ class Runner(Actions):
         for s in self.subs.values():
             if not gone:
                 s.unregister()
+        if self.warm is not None and not gone:
+            # the next scenario in this process starts its inputs afresh (sequence numbers)
+            for pub in self.pubs.values():
+                try:
+                    pub.unregister()
+                except Exception:  # noqa: BLE001 - not a rospy publisher
+                    pass
         with self.bag_lock:
             if self.bag is not None:     # storage faults: one line each, the run goes on
                 self.storage_problems = self.bag.close()
                 self.bag = None
-        procs.stop_run([p for p in self.procs if p is not self.world_proc],
-                       self.world_proc, self.watch.get('the world node /sim_world'))
+        if self.warm is not None:        # the apps stop; the world stays for the next one
+            procs.stop_run([p for p in self.procs if p is not self.world_proc])
+            self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
+        else:
+            procs.stop_run([p for p in self.procs if p is not self.world_proc],
+                           self.world_proc, self.watch.get('the world node /sim_world'))
         if self.collector is not None:
             self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):
@@ -989,6 +1002,49 @@ class Runner(Actions):
                                                                        e.strerror or e))
                 if result.error is None:
                     result.error = 'cannot write the JUnit file %s' % self.junit
+
+
+def launch_args(sc, seed, rtf, report=None):
+    """(launch file, [its arguments]) of scenario ``sc``'s world: what makes the world
+    (``world_key``) and what only sets its start (the seed, the real-time factor and the
+    office phone's pose, which a warm world takes from /gazebo/reload_world)."""
+    w = sc.world
+    launch = w.get('launch', 'office')
+    path = LAUNCHES.get(launch) or sc.resolve(launch)
+    if not os.path.isfile(path):
+        raise RunError('world.launch: no launch file %s (expected office or a path to a '
+                       '.launch file)' % path)
+    args = ['paused:=true', 'seed:=%d' % seed, 'real_time_factor:=%g' % rtf,
+            'physics:=%s' % w.get('physics', 'ode')]
+    if launch == 'office':
+        # the report shows the spectator view: the flycam at 1 frame per sim second
+        args += ['flycam:=true', 'flycam_rate:=1'] if report else ['flycam:=false']
+        args += ['phone_%s:=%r' % kv for kv in sorted(start_pose(sc).items())]
+    if 'max_step_size' in w:
+        args.append('max_step_size:=%r' % w['max_step_size'])
+    for k, v in (w.get('args') or {}).items():
+        args.append('%s:=%s' % (k, str(v).lower() if isinstance(v, bool) else v))
+    return path, args
+
+
+def start_pose(sc):
+    """The office launch's phone_x, phone_y, phone_z, phone_yaw scenario ``sc`` sets."""
+    if sc.world.get('launch', 'office') != 'office':
+        return {}
+    ph, pose = sc.phones[0], {}
+    if 'position' in ph:
+        pose.update(zip('xyz', ph['position']))
+    if 'rpy' in ph:
+        pose['yaw'] = ph['rpy'][2]
+    return pose
+
+
+def world_key(sc, report=None):
+    """What a warm world must have been launched with to serve scenario ``sc``: its launch
+    file and arguments, but for the seed, the real-time factor and the phone's pose."""
+    path, args = launch_args(sc, 0, 1.0, report)
+    return (os.path.abspath(path),) + tuple(
+        a for a in args if not a.startswith(('seed:=', 'real_time_factor:=', 'phone_')))
 
 
 def _probe_field(proto, path):

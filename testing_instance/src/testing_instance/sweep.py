@@ -16,7 +16,6 @@ import json
 import os
 import re
 import shlex
-import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ET
@@ -173,26 +172,19 @@ class Layout(object):
         return os.path.join(self.out, 'logs', run.id + '.txt')
 
 
-def run_local(runs, jobs, layout, rtf=None, out=print):
-    """Each run in its own run_scenario process, ``jobs`` at a time."""
-    pending = list(runs)
-    running, results = [], []
-    while pending or running:
-        while pending and len(running) < jobs:
-            r = pending.pop(0)
-            p = subprocess.Popen(run_command(r, layout.junit_of(r), layout.bag_of(r), rtf,
-                                             report=layout.report_of(r)),
-                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                 env=run_env(), text=True)
-            running.append((r, p, time.monotonic()))
-        for item in list(running):
-            r, p, t0 = item
-            if p.poll() is not None:
-                running.remove(item)
-                res = result(r, p.returncode, p.stdout.read(), time.monotonic() - t0)
-                finished(res, layout, out)
-                results.append(res)
-        time.sleep(0.1)
+def run_local(runs, jobs, layout, rtf=None, out=print, warm=True):
+    """The runs ``jobs`` at a time (testing_instance.warm.Pool: warm worlds; ``warm=False``
+    each in its own run_scenario process and master)."""
+    from .warm import Pool
+    results = []
+
+    def done(r, rc, text, wall):
+        res = result(r, rc, text, wall)
+        finished(res, layout, out)
+        results.append(res)
+    items = [(r, run_command(r, layout.junit_of(r), layout.bag_of(r), rtf,
+                             report=layout.report_of(r))[2:]) for r in runs]
+    Pool(jobs, warm=warm, env=run_env()).run(items, done)
     return results
 
 
@@ -356,7 +348,8 @@ def main(files, a, out=print, remote=None):
         mode = 'cluster'
     else:
         out('%d runs, %d at a time' % (len(runs), max(1, a.jobs)))
-        results = run_local(runs, max(1, a.jobs), layout, rtf=a.rtf, out=out)
+        results = run_local(runs, max(1, a.jobs), layout, rtf=a.rtf, out=out,
+                            warm=not getattr(a, 'cold', False))
         mode = 'local'
     summary = summarise(results, time.monotonic() - t0, mode)
     out('')

@@ -269,6 +269,38 @@ class Renderer(object):
                 self._trash.append(('vao', it.vao))
                 it.vao = None
 
+    def close(self):
+        """Free every GL object this renderer made (the shared context stays) and end its
+        worker thread: a world reloaded in the same process (sim_world's
+        /gazebo/reload_world) makes a new renderer, and the old one must not keep its
+        buffers in the context."""
+        self.wait_idle()
+        with self._lock:
+            for name in list(self._items):
+                self._drop(name)
+            for key in list(self._dyn):
+                d = self._dyn.pop(key)
+                if d.tex is not None:
+                    self._trash.append(('tex', d.tex))
+            for pr in self._projectors.values():
+                if pr.tex is not None:
+                    self._trash.append(('tex', pr.tex))
+            self._projectors.clear()
+            for tid in list(self._gl_textures.values()) + list(self._cone_tex.values()):
+                if tid is not None:
+                    self._trash.append(('tex', tid))
+            self._gl_textures.clear()
+            self._cone_tex.clear()
+            self._link_poses.clear()
+            self._pending_poses.clear()
+            self._last_pq.clear()
+            if self._trash:
+                with self.ctx:
+                    self._empty_trash()
+            if self._worker is not None and self._worker.is_alive():
+                self._jobs.put(None)
+            self._worker = None
+
     def model_names(self):
         with self._lock:
             return list(self._items)
@@ -764,7 +796,10 @@ class Renderer(object):
 
     def _work(self):
         while True:
-            view, depth, done = self._jobs.get()
+            job = self._jobs.get()
+            if job is None:            # close()
+                return
+            view, depth, done = job
             try:
                 out = self._render(view, depth, apply=False)
                 if depth:

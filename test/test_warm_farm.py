@@ -1,0 +1,124 @@
+"""Warm worlds (issue 18 item 3): a farm's worker keeps its master and world, and resets
+the world between scenarios with /gazebo/reload_world.
+
+- a scenario run after another in one warm world records exactly what it records alone in
+  a fresh world, message by message with its times, though the first one changed
+  everything a scenario can change (environment, faults, charger, radio, models spawned,
+  deleted and moved, the phone's start pose, an app parameter, a latched topic);
+- the warm farm's verdicts on the examples are the cold farm's;
+- the world node's reload service refuses bad requests with one line and keeps serving.
+"""
+import os
+import re
+import subprocess
+
+import pytest
+
+from fixtures.scenario_cli import run_scenario
+from test_scenarios import EX, bag_messages, verdicts
+
+pytestmark = pytest.mark.rostest
+
+MESSY = """\
+name: messy
+seed: 11
+duration: 1.0
+world: {args: {camera_rate: 1}}
+phones: [{ns: mobile_device, position: [4.0, -4.0, 1.2], rpy: [0, 0, 1.0]}]
+apps:
+  - {name: rotate_app, script: %(ex)s/rotate_app.py, params: {imu: /nowhere}}
+timeline:
+  - {at: 0.0, action: charger, plugged: true}
+  - {at: 0.0, action: radio, radio: wifi, enabled: false}
+  - {at: 0.1, action: set_environment, values: {magnetic_declination: 30,
+     indoor_temperature: 35}}
+  - {at: 0.1, action: fault, sensor: imu_controller, fault: noise, value: 5}
+  - {at: 0.2, action: spawn_model, name: head, file: %(ex)s/head.sdf,
+     position: [3.3, -2.11, 1.045]}
+  - {at: 0.2, action: delete_model, name: chair}
+  - {at: 0.3, action: set_model_state, model: mobile_device, position: [1, 1, 1]}
+  - {at: 0.3, action: publish, topic: /probe, type: std_msgs/String, msg: {data: hello}}
+expect:
+  - {name: imu, topic: /mobile_device/imu_sensor_data, rate: {gt: 50}}
+"""
+
+
+def test_warm_world_gives_the_cold_recording(tmp_path):
+    messy = tmp_path / 'messy.yaml'
+    messy.write_text(MESSY % {'ex': EX})
+    b = os.path.join(EX, 'auto_rotate.yaml')
+    # one worker: messy, then auto_rotate in the same world
+    rc, out = run_scenario('--jobs', '1', messy, b, '--record', tmp_path / 'warm',
+                           timeout=600)
+    assert rc == 0, out
+    assert re.search(r'\[messy.yaml\] scenario messy .*: PASS', out), out
+    assert re.search(r'\[auto_rotate.yaml\] start-up: \d', out), out
+    rc, out_cold = run_scenario(b, '--record', tmp_path / 'cold.bag', timeout=600)
+    assert rc == 0, out_cold
+    assert verdicts(out, '[auto_rotate.yaml] ') == verdicts(out_cold)
+    warm = bag_messages(tmp_path / 'warm' / 'auto_rotate.bag')
+    cold = bag_messages(tmp_path / 'cold.bag')
+    assert '/mobile_device/imu_sensor_data' in cold and '/rotate_app/rotation' in cold
+    assert '/probe' not in warm
+    assert sorted(warm) == sorted(cold)
+    for topic in cold:        # the meta too: same scenario, seed and real-time factor
+        assert len(warm[topic]) == len(cold[topic]), topic
+        for i, (x, y) in enumerate(zip(warm[topic], cold[topic])):
+            assert x == y, '%s message %d (time, bytes) differs warm and cold' % (topic, i)
+
+
+def test_warm_and_cold_farms_agree_on_the_examples(tmp_path):
+    files = [os.path.join(EX, f) for f in ('compass.yaml', 'compass_fails.yaml',
+                                           'incall_proximity.yaml', 'battery_saver.yaml',
+                                           'nfc_vcard.yaml')]
+    rc_w, warm = run_scenario('--jobs', '2', *files, timeout=900)
+    rc_c, cold = run_scenario('--jobs', '2', '--cold', *files, timeout=900)
+    assert rc_w == rc_c == 1, warm + cold           # compass_fails fails
+    for f in files:
+        name = os.path.basename(f)
+        w, c = verdicts(warm, '[%s] ' % name), verdicts(cold, '[%s] ' % name)
+        assert w and w == c, (name, warm, cold)
+    # warm: a start-up per scenario, all of them printed
+    assert len(re.findall(r'^\[\S+\] start-up: ', warm, re.M)) == len(files), warm
+
+
+def test_reload_world_refuses_bad_requests_and_keeps_serving(tmp_path):
+    from fixtures.rosworld import office_world
+
+    def ros(*cmd):
+        p = subprocess.run(list(cmd), env=env, capture_output=True, text=True, timeout=60)
+        return re.sub(r'\\\n\s*\\', '', p.stdout + p.stderr)   # rosservice's folded lines
+
+    def reload(req):
+        return ros('rosservice', 'call', '--wait', '/gazebo/reload_world', req)
+    with office_world(tmp_path, 'paused:=true') as env:
+        ros('rosservice', 'call', '--wait', '/gazebo/step_world', '{until: 0.01}')
+        before = ros('rosservice', 'call', '/gazebo/get_model_state',
+                     '{model_name: mobile_device}')
+        bad = {
+            '{seed: -5}': 'seed must be >= 0',
+            '{seed: 1, real_time_factor: -1, start_poses: "{nope: {x: 1}}"}':
+                "no remembered model 'nope'",
+            '{seed: 1, real_time_factor: -1, start_poses: "{mobile_device: {q: 1}}"}':
+                'give a mapping of x, y, z, R, P, Y',
+            '{seed: 1, real_time_factor: -1, start_poses: "{mobile_device: {x: abc}}"}':
+                'must be a finite number',
+            '{seed: 1, real_time_factor: -1, start_poses: "[1, 2"}': 'start_poses is not YAML',
+        }
+        for req, why in bad.items():
+            out = reload(req)
+            assert 'success: False' in out and why in out and 'nothing changed' in out, out
+        # nothing changed: the same world, at the same time
+        seq = re.compile(r'seq: \d+')
+        assert seq.sub('', ros('rosservice', 'call', '/gazebo/get_model_state',
+                               '{model_name: mobile_device}')) == seq.sub('', before)
+        out = reload('{seed: 8, real_time_factor: -1, '
+                     'start_poses: "{mobile_device: {x: 2.5, Y: 1.0}}"}')
+        assert 'success: True' in out and 'seed 8' in out, out
+        st = ros('rosservice', 'call', '/gazebo/get_model_state',
+                 '{model_name: mobile_device}')
+        assert re.search(r'x: 2\.5\b', st) and re.search(r'y: -2\.11\b', st), st
+        assert 'secs: 0\n' in st, st                       # sim time 0 again
+        assert ros('rosparam', 'get', '/sim_world/seed').strip().strip("'") == '8'
+        st = ros('rosservice', 'call', '/gazebo/step_world', '{until: 0.2}')
+        assert 'sim_time: 0.2' in st, st

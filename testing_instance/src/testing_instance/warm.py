@@ -1,0 +1,460 @@
+"""Warm worlds for farms (issue 18): a master and a loaded world serve scenario after
+scenario.
+
+A farm (``run_scenario --jobs N``, a local sweep) starts N worker processes
+(``run_scenario --warm-worker``). Each keeps one ROS master for its life and one world
+launched on it; a scenario whose world is the same (the same launch file and world
+arguments: :meth:`Runner.world_key`) runs in that world after a reset, any other gets the
+old world stopped and its own launched. The reset between scenarios
+(:meth:`WarmHost.reset`):
+
+- ``/gazebo/reload_world``: sim_world builds a fresh World in its process (same file,
+  engine and step), with the scenario's seed and real-time factor, and spawns the launch's
+  models again from their requests, the phone at the scenario's start pose. Models spawned
+  or deleted, environment values, faults and every plugin's state go with the old world;
+- every parameter the scenario's apps and actions left on the parameter server is deleted
+  (what the launch set stays);
+- registrations of nodes that are gone (an app killed at the end) are removed from the
+  master.
+
+So a scenario sees what it would see in a fresh world: ``test_warm_world_gives_the_cold_
+recording`` runs A then B warm and B cold and compares B's recordings message by message.
+The runner itself runs in the worker process: Python, rospy and the imports are paid once
+per worker, not per scenario.
+
+The farm talks to a worker through its standard input and output, one JSON object per
+line: ``{"id": N, "argv": [...]}`` (a run_scenario command line) in,
+``{"id": N, "line": "..."}`` (its output) and ``{"id": N, "exit": code}`` out.
+"""
+import json
+import os
+import queue
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+from sim_world.netutil import wait_for_service
+
+from . import procs
+from .procs import Proc, free_port
+from .results import EXIT_ERROR, RunError
+
+__all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
+
+NODE = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__)))), 'nodes', 'run_scenario')
+CORE_NODES = ('/rosout', '/sim_world', '/scenario_runner')
+
+
+class WarmHost(object):
+    """One worker's master and world (see the module doc)."""
+
+    def __init__(self, run_dir=None):
+        self.dir = run_dir or tempfile.mkdtemp(prefix='warm_world_')
+        self.port = None
+        self.core = None          # Proc: roscore (master + rosout), for the worker's life
+        self.launch = None        # Proc: roslaunch of the world
+        self.key = None
+        self.node_pid = None      # the world node below the launch
+        self.core_params = set()  # what the master set (roscore)
+        self.core_nodes = set()
+        self.base_params = set()  # ... and the launch
+        self.base_nodes = set()
+        self.log_offset = 0
+        self.worlds = 0           # worlds launched (1 per key change)
+        self.resets = 0
+
+    # -- what a Runner asks --------------------------------------------------------------
+    def env(self):
+        env = dict(os.environ)
+        env['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
+        env.setdefault('ROS_HOSTNAME', 'localhost')
+        env['ROS_LOG_DIR'] = os.path.join(self.dir, 'log')
+        env['PYTHONUNBUFFERED'] = '1'
+        return env
+
+    def prepare(self, runner, deadline):
+        """Make the world ``runner``'s scenario needs ready at sim time 0, paused."""
+        if self.core is None or not self.core.alive():
+            self._start_core(deadline)
+        runner.port = self.port
+        runner.init_ros()                # once per worker: the node lives on the master
+        key = runner.world_key()
+        if key != self.key or self.launch is None or not self.launch.alive() or \
+                not procs.alive(self.node_pid or -1):
+            self._stop_world()
+            self._clear(self.core_params, self.core_nodes)
+            self._start_world(runner, key, deadline)
+        else:
+            self._clear(self.base_params, self.base_nodes)
+        self.reset(runner)
+
+    def reset(self, runner):
+        from mobile_device_sim.srv import ReloadWorld
+        import rospy
+        pose = runner.start_pose()
+        over = {}
+        if pose:
+            over = {k if k != 'yaw' else 'Y': float(v) for k, v in pose.items()}
+            over = {'mobile_device': over}
+        try:
+            r = rospy.ServiceProxy('/gazebo/reload_world', ReloadWorld)(
+                seed=runner.seed, real_time_factor=runner.rtf, start_poses=json.dumps(over))
+        except Exception as e:  # noqa: BLE001 - the world is gone or refused the call
+            raise RunError('the warm world did not reload: %s' % e, self.log_tail())
+        if not r.success:
+            raise RunError('the warm world did not reload: %s' % r.status_message,
+                           self.log_tail())
+        self.resets += 1
+        self.log_offset = _size(self.log_path)
+
+    @property
+    def log_path(self):
+        return os.path.join(self.dir, 'world.log')
+
+    def log_tail(self, n=25):
+        """The last lines the world logged since this scenario's reset."""
+        try:
+            with open(self.log_path, 'rb') as f:
+                f.seek(self.log_offset)
+                text = f.read().decode('utf-8', 'replace')
+        except OSError:
+            return []
+        return text.splitlines()[-n:]
+
+    def save_log(self, path):
+        """This scenario's part of the world's log, as a cold run's world.log."""
+        try:
+            with open(self.log_path, 'rb') as f, open(path, 'wb') as out:
+                f.seek(self.log_offset)
+                out.write(f.read())
+        except OSError:
+            pass
+
+    def watched(self):
+        """{what: pid} of the master and the world node (Runner._check_world)."""
+        out = {}
+        for proc in (self.core, self.launch):
+            if proc is None:
+                continue
+            for pid in procs.descendants(proc.p.pid)[1:]:
+                cl = procs.cmdline(pid)
+                if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
+                    out['the ROS master (rosmaster)'] = pid
+                elif '__name:=sim_world' in cl:
+                    out['the world node /sim_world'] = pid
+        return out
+
+    # -- the master and the world --------------------------------------------------------
+    def _master(self):
+        import rosgraph
+        return rosgraph.Master('/scenario_runner',
+                               master_uri='http://localhost:%d' % self.port)
+
+    def _start_core(self, deadline):
+        for attempt in (1, 2):
+            self.port = free_port()
+            self.core = Proc(['roscore', '-p', str(self.port)], self.env(),
+                             os.path.join(self.dir, 'roscore.log'))
+            m = self._master()
+            while time.monotonic() < deadline and self.core.alive():
+                try:
+                    m.getSystemState()
+                    m.lookupNode('/rosout')
+                    m.setParam('/use_sim_time', True)
+                    self.core_params = set(m.getParamNames())
+                    self.core_nodes = _nodes(m)
+                    return
+                except Exception:  # noqa: BLE001 - not up yet
+                    time.sleep(0.02)
+            self.core.stop(grace=2.0)
+            if attempt == 2 or time.monotonic() >= deadline:
+                raise RunError('no ROS master on port %d for the warm world' % self.port,
+                               procs.tail(self.core.log_path))
+
+    def _start_world(self, runner, key, deadline):
+        path, args = runner.launch_args()
+        # the phone where the launch file puts it: each reload sets the scenario's pose
+        args = [a for a in args if not a.startswith('phone_')]
+        self.launch = Proc(['roslaunch', path] + args, self.env(), self.log_path)
+        self.key = key
+        self.log_offset = 0
+        self.worlds += 1
+        if not wait_for_service('/gazebo/reload_world', timeout=max(
+                0.1, deadline - time.monotonic()), caller='/scenario_runner'):
+            raise RunError('the warm world did not offer /gazebo/reload_world',
+                           procs.tail(self.log_path))
+        # the launch's own spawners (the phone, the flycam) are done: their models are the
+        # ones every reload spawns again
+        while time.monotonic() < deadline and self.launch.alive():
+            if not any('spawn_model' in ' '.join(procs.cmdline(p))
+                       for p in procs.descendants(self.launch.p.pid)[1:]):
+                break
+            time.sleep(0.02)
+        self.node_pid = next((pid for pid in procs.descendants(self.launch.p.pid)[1:]
+                              if '__name:=sim_world' in procs.cmdline(pid)), None)
+        if not self.launch.alive() or self.node_pid is None:
+            raise RunError('the warm world exited while starting', procs.tail(self.log_path))
+        m = self._master()
+        self.base_params = set(m.getParamNames())
+        self.base_nodes = _nodes(m)
+
+    def _stop_world(self):
+        if self.launch is not None:
+            procs.stop_run([], self.launch, self.node_pid)
+        self.launch, self.key, self.node_pid = None, None, None
+
+    def _clear(self, params, nodes):
+        """Delete the parameters not in ``params``; unregister what nodes not in ``nodes``
+        that are gone left registered."""
+        m = self._master()
+        for name in sorted(set(m.getParamNames()) - set(params)):
+            try:
+                m.deleteParam(name)
+            except Exception:  # noqa: BLE001 - gone with a parent already
+                pass
+        _forget_gone(m, set(nodes) | set(CORE_NODES))
+
+    def close(self):
+        self._stop_world()
+        if self.core is not None:
+            self.core.stop(grace=5.0)
+            self.core = None
+
+
+def _size(path):
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0
+
+
+def _nodes(m):
+    pubs, subs, srvs = m.getSystemState()
+    return {n for _t, ns in pubs + subs + srvs for n in ns}
+
+
+def _forget_gone(m, keep):
+    """Unregister every topic and service of nodes (not in ``keep``) that no longer answer."""
+    from xmlrpc.client import ServerProxy
+    pubs, subs, srvs = m.getSystemState()
+    for node in {n for _t, ns in pubs + subs + srvs for n in ns} - keep:
+        try:
+            uri = m.lookupNode(node)
+        except Exception:  # noqa: BLE001
+            continue
+        try:
+            _Quick(uri).getPid('/scenario_runner')
+            continue                                       # alive: it stays
+        except Exception:  # noqa: BLE001 - gone
+            pass
+        master = ServerProxy(m.master_uri)
+        for topic, ns in pubs:
+            if node in ns:
+                master.unregisterPublisher(node, topic, uri)
+        for topic, ns in subs:
+            if node in ns:
+                master.unregisterSubscriber(node, topic, uri)
+        for srv, ns in srvs:
+            if node in ns:
+                try:
+                    master.unregisterService(node, srv, m.lookupService(srv))
+                except Exception:  # noqa: BLE001
+                    pass
+
+
+class _Quick(object):
+    """An XML-RPC proxy with a 1 s socket timeout (a dead node's port refuses at once; a
+    stopped one must not hang the reset)."""
+
+    def __init__(self, uri):
+        import xmlrpc.client
+        import http.client
+
+        class T(xmlrpc.client.Transport):
+            def make_connection(self, host):
+                return http.client.HTTPConnection(host, timeout=1.0)
+        self._p = xmlrpc.client.ServerProxy(uri, transport=T())
+
+    def __getattr__(self, name):
+        return getattr(self._p, name)
+
+
+# -- the worker: run_scenario --warm-worker ------------------------------------------------
+def worker_main(stdin=None, stdout=None):
+    """Read jobs (run_scenario command lines) and run each in this process's warm world."""
+    from .cli import run_argv
+    stdin = stdin or sys.stdin
+    proto = stdout or os.fdopen(os.dup(sys.stdout.fileno()), 'w', buffering=1)
+    # everything else this process prints (rospy's console lines) is not the protocol
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
+    host = WarmHost()
+    lock = threading.Lock()
+
+    def send(obj):
+        with lock:
+            proto.write(json.dumps(obj) + '\n')
+            proto.flush()
+    try:
+        for line in stdin:
+            if not line.strip():
+                continue
+            job = json.loads(line)
+            jid = job['id']
+            try:
+                code = run_argv(job['argv'], warm=host,
+                                out=lambda s, i=jid: send({'id': i, 'line': s}))
+            except Exception as e:  # noqa: BLE001 - the job is an ERROR, the worker lives on
+                send({'id': jid, 'line': 'ERROR the warm worker failed: %s: %s'
+                      % (type(e).__name__, e)})
+                code = EXIT_ERROR
+            send({'id': jid, 'exit': code})
+    finally:
+        host.close()
+    return 0
+
+
+# -- the farm's side ------------------------------------------------------------------------
+class Pool(object):
+    """Runs run_scenario command lines ``jobs`` at a time: in warm workers (default), or
+    each in its own process (``warm=False``: a cold world per scenario, as before).
+    ``run(items, done)``: items are (tag, argv); done(tag, code, text, wall) is called as
+    each finishes. Warm: scenarios of the same world are dealt out one after another so a
+    worker's world is reused; a worker that dies costs its scenario (an ERROR with its log
+    tail) and is replaced."""
+
+    def __init__(self, jobs, warm=True, env=None, python=None):
+        self.jobs = max(1, int(jobs))
+        self.warm = warm
+        self.env = dict(env or os.environ)
+        self.env.pop('ROS_MASTER_URI', None)      # each worker/run starts its own master
+        self.env.setdefault('ROS_HOSTNAME', 'localhost')
+        self.python = python or sys.executable
+        self.dir = tempfile.mkdtemp(prefix='warm_pool_')
+
+    def run(self, items, done):
+        items = sort_by_world(items) if self.warm else list(items)
+        if self.warm:
+            return self._run_warm(items, done)
+        return self._run_cold(items, done)
+
+    def _run_cold(self, items, done):
+        pending, running = list(items), []
+        while pending or running:
+            while pending and len(running) < self.jobs:
+                tag, argv = pending.pop(0)
+                p = subprocess.Popen([self.python, NODE] + list(argv), stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, env=self.env, text=True)
+                running.append((tag, p, time.monotonic()))
+            for item in list(running):
+                tag, p, t0 = item
+                if p.poll() is not None:
+                    running.remove(item)
+                    done(tag, p.returncode, p.stdout.read(), time.monotonic() - t0)
+            time.sleep(0.02)
+
+    def _run_warm(self, items, done):
+        events = queue.Queue()
+        pending = list(enumerate(items))
+        workers = []
+        try:
+            while pending or any(w.job is not None for w in workers):
+                for w in workers:
+                    if w.job is None and pending and w.alive():
+                        w.give(*pending.pop(0))
+                while pending and len(workers) < self.jobs and \
+                        all(w.job is not None for w in workers if w.alive()):
+                    workers = [w for w in workers if w.alive()]
+                    w = _Worker(self, len(workers), events)
+                    workers.append(w)
+                    w.give(*pending.pop(0))
+                try:
+                    w, msg = events.get(timeout=1.0)
+                except queue.Empty:
+                    continue
+                if msg is None:                           # the worker's output ended
+                    if w.job is not None:
+                        (_i, (tag, _argv)), t0, lines = w.job, w.t0, w.lines
+                        w.job = None
+                        lines.append('ERROR the warm worker died (exit code %s)'
+                                     % w.p.wait())
+                        lines += ['  | ' + ln for ln in procs.tail(w.log_path, 15)]
+                        done(tag, EXIT_ERROR, '\n'.join(lines) + '\n',
+                             time.monotonic() - t0)
+                    continue
+                if w.job is None or msg.get('id') != w.job[0]:
+                    continue
+                if 'line' in msg:
+                    w.lines.append(msg['line'])
+                elif 'exit' in msg:
+                    (_i, (tag, _argv)), t0 = w.job, w.t0
+                    text = '\n'.join(w.lines) + ('\n' if w.lines else '')
+                    w.job = None
+                    done(tag, int(msg['exit']), text, time.monotonic() - t0)
+        finally:
+            for w in workers:
+                w.close()
+
+
+class _Worker(object):
+    def __init__(self, pool, n, events):
+        self.log_path = os.path.join(pool.dir, 'worker%d.log' % n)
+        self.log = open(self.log_path, 'w')
+        self.p = subprocess.Popen([pool.python, NODE, '--warm-worker'], stdin=subprocess.PIPE,
+                                  stdout=subprocess.PIPE, stderr=self.log, env=pool.env,
+                                  text=True, bufsize=1)
+        self.job, self.t0, self.lines = None, 0.0, []
+        self.reader = threading.Thread(target=self._read, args=(events,), daemon=True)
+        self.reader.start()
+
+    def _read(self, events):
+        for line in self.p.stdout:
+            try:
+                events.put((self, json.loads(line)))
+            except ValueError:
+                continue
+        events.put((self, None))
+
+    def alive(self):
+        return self.p.poll() is None
+
+    def give(self, i, item):
+        self.job, self.t0, self.lines = (i, item), time.monotonic(), []
+        self.p.stdin.write(json.dumps({'id': i, 'argv': list(item[1])}) + '\n')
+        self.p.stdin.flush()
+
+    def close(self):
+        try:
+            self.p.stdin.close()
+        except OSError:
+            pass
+        try:
+            self.p.wait(30)
+        except subprocess.TimeoutExpired:
+            self.p.kill()
+            self.p.wait(5)
+        self.log.close()
+
+
+def sort_by_world(items):
+    """(tag, argv) items, those of one world next to each other (first-seen order of the
+    worlds, the given order within each)."""
+    order, groups = [], {}
+    for item in items:
+        k = _key_of(item[1])
+        if k not in groups:
+            order.append(k)
+            groups[k] = []
+        groups[k].append(item)
+    return [it for k in order for it in groups[k]]
+
+
+def _key_of(argv):
+    """The world key of a run_scenario command line (None: not known, e.g. a bad file)."""
+    from .cli import world_key_of
+    try:
+        return repr(world_key_of(argv))
+    except Exception:  # noqa: BLE001 - the run will say what is wrong
+        return None

@@ -273,7 +273,7 @@ class WorldHost(object):
                'real_time_factor %g, in %.3f s' % (world.name, world.seed, len(world.models),
                                                   len(spawned), self.rtf,
                                                   time.monotonic() - t0))
-        rospy.loginfo(msg)
+        rospy.loginfo('sim_world: ' + msg)
         return True, msg
 
 

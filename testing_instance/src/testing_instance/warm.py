@@ -29,6 +29,7 @@ line: ``{"id": N, "argv": [...]}`` (a run_scenario command line) in,
 import json
 import os
 import queue
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -99,6 +100,7 @@ class WarmHost(object):
         if pose:
             over = {k if k != 'yaw' else 'Y': float(v) for k, v in pose.items()}
             over = {'mobile_device': over}
+        self.log_offset = _size(self.log_path)     # this scenario's world log from here
         try:
             r = rospy.ServiceProxy('/gazebo/reload_world', ReloadWorld)(
                 seed=runner.seed, real_time_factor=runner.rtf, start_poses=json.dumps(over))
@@ -108,7 +110,6 @@ class WarmHost(object):
             raise RunError('the warm world did not reload: %s' % r.status_message,
                            self.log_tail())
         self.resets += 1
-        self.log_offset = _size(self.log_path)
 
     @property
     def log_path(self):
@@ -222,6 +223,8 @@ class WarmHost(object):
         if self.core is not None:
             self.core.stop(grace=5.0)
             self.core = None
+        if not os.environ.get('SCENARIO_KEEP_LOGS'):
+            shutil.rmtree(self.dir, ignore_errors=True)
 
 
 def _size(path):
@@ -333,12 +336,16 @@ class Pool(object):
         self.env.setdefault('ROS_HOSTNAME', 'localhost')
         self.python = python or sys.executable
         self.dir = tempfile.mkdtemp(prefix='warm_pool_')
+        self.started = 0          # workers started (a dead one is replaced)
 
     def run(self, items, done):
-        items = sort_by_world(items) if self.warm else list(items)
-        if self.warm:
-            return self._run_warm(items, done)
-        return self._run_cold(items, done)
+        try:
+            if self.warm:
+                return self._run_warm(sort_by_world(items), done)
+            return self._run_cold(list(items), done)
+        finally:
+            if not os.environ.get('SCENARIO_KEEP_LOGS'):
+                shutil.rmtree(self.dir, ignore_errors=True)
 
     def _run_cold(self, items, done):
         pending, running = list(items), []
@@ -357,19 +364,22 @@ class Pool(object):
 
     def _run_warm(self, items, done):
         events = queue.Queue()
-        pending = list(enumerate(items))
+        pending = [(i, (tag, argv), key) for i, (key, tag, argv) in enumerate(items)]
         workers = []
         try:
             while pending or any(w.job is not None for w in workers):
+                for w in [w for w in workers if not w.alive() and w.job is None]:
+                    w.close()                    # died: its scenario is said; replaced
+                    workers.remove(w)
                 for w in workers:
                     if w.job is None and pending and w.alive():
-                        w.give(*pending.pop(0))
+                        w.give(*_pick(w, pending, workers))
                 while pending and len(workers) < self.jobs and \
                         all(w.job is not None for w in workers if w.alive()):
-                    workers = [w for w in workers if w.alive()]
-                    w = _Worker(self, len(workers), events)
+                    w = _Worker(self, self.started, events)
+                    self.started += 1
                     workers.append(w)
-                    w.give(*pending.pop(0))
+                    w.give(*_pick(w, pending, workers))
                 try:
                     w, msg = events.get(timeout=1.0)
                 except queue.Empty:
@@ -406,6 +416,7 @@ class _Worker(object):
                                   stdout=subprocess.PIPE, stderr=self.log, env=pool.env,
                                   text=True, bufsize=1)
         self.job, self.t0, self.lines = None, 0.0, []
+        self.key = None           # the world it has (or will have after its job)
         self.reader = threading.Thread(target=self._read, args=(events,), daemon=True)
         self.reader.start()
 
@@ -420,8 +431,10 @@ class _Worker(object):
     def alive(self):
         return self.p.poll() is None
 
-    def give(self, i, item):
+    def give(self, i, item, key=None):
         self.job, self.t0, self.lines = (i, item), time.monotonic(), []
+        if key is not None:
+            self.key = key
         self.p.stdin.write(json.dumps({'id': i, 'argv': list(item[1])}) + '\n')
         self.p.stdin.flush()
 
@@ -438,16 +451,30 @@ class _Worker(object):
         self.log.close()
 
 
+def _pick(w, pending, workers):
+    """The pending (i, item, key) worker ``w`` takes next: one on the world it has; else
+    one on a world no other worker has (each world is launched once while there are
+    others to launch); else the next."""
+    for n, p in enumerate(pending):
+        if p[2] is not None and p[2] == w.key:
+            return pending.pop(n)
+    held = {x.key for x in workers if x is not w}
+    for n, p in enumerate(pending):
+        if p[2] not in held:
+            return pending.pop(n)
+    return pending.pop(0)
+
+
 def sort_by_world(items):
-    """(tag, argv) items, those of one world next to each other (first-seen order of the
-    worlds, the given order within each)."""
+    """(key, tag, argv) of the (tag, argv) items, those of one world next to each other
+    (first-seen order of the worlds, the given order within each); key: the world's."""
     order, groups = [], {}
-    for item in items:
-        k = _key_of(item[1])
+    for tag, argv in items:
+        k = _key_of(argv)
         if k not in groups:
             order.append(k)
             groups[k] = []
-        groups[k].append(item)
+        groups[k].append((k, tag, argv))
     return [it for k in order for it in groups[k]]
 
 

@@ -1,0 +1,191 @@
+"""Warm worlds without a roscore: the farm's pool and its workers' protocol (with fake
+workers), the dealing of scenarios to workers by world, the world key, and the reload
+request's checks and start poses of sim_world's WorldHost."""
+import math
+import os
+import stat
+import sys
+import types
+
+import pytest
+
+from testing_instance import warm
+from testing_instance.runner import world_key
+from testing_instance.scenario import load
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+EX = os.path.join(ROOT, 'testing_instance', 'examples')
+
+FAKE_WORKER = r'''#!%(py)s
+import json, os, sys
+# a fake run_scenario --warm-worker: argv [NODE, '--warm-worker']; each job's argv[0] says
+# what to do: pass, fail, die (the worker process dies mid-job)
+assert sys.argv[2:] == ['--warm-worker'], sys.argv
+for line in sys.stdin:
+    job = json.loads(line)
+    what = os.path.basename(job['argv'][0])
+    print(json.dumps({'id': job['id'], 'line': 'worker %%d runs %%s' %% (os.getpid(), what)}),
+          flush=True)
+    if what == 'die':
+        sys.stderr.write('the fake worker dies\n')
+        sys.stderr.flush()
+        os._exit(9)
+    print('not json: ignored', flush=True)
+    print(json.dumps({'id': job['id'], 'line': 'PASS x: %%s' %% what}), flush=True)
+    print(json.dumps({'id': job['id'], 'exit': 0 if what == 'pass' else 1}), flush=True)
+'''
+
+
+@pytest.fixture
+def fake_python(tmp_path):
+    p = tmp_path / 'fake_worker'
+    p.write_text(FAKE_WORKER % {'py': sys.executable})
+    p.chmod(p.stat().st_mode | stat.S_IEXEC)
+    return str(p)
+
+
+def run_pool(fake_python, names, jobs, monkeypatch):
+    monkeypatch.setattr(warm, '_key_of', lambda argv: 'world-' + argv[0][0])
+    got = []
+    warm.Pool(jobs, python=fake_python).run([(n, [n]) for n in names],
+                                            lambda *r: got.append(r))
+    return got
+
+
+def test_pool_runs_every_item_and_relays_its_lines(fake_python, monkeypatch):
+    got = run_pool(fake_python, ['pass', 'fail', 'pass'], 2, monkeypatch)
+    assert sorted((t, rc) for t, rc, _text, _w in got) == [('fail', 1), ('pass', 0),
+                                                           ('pass', 0)]
+    for tag, _rc, text, wall in got:
+        lines = text.splitlines()
+        assert lines[0].startswith('worker ') and lines[0].endswith('runs ' + tag)
+        assert lines[1] == 'PASS x: ' + tag and len(lines) == 2     # non-JSON ignored
+        assert wall >= 0
+
+
+def test_pool_reuses_its_workers(fake_python, monkeypatch):
+    got = run_pool(fake_python, ['pass'] * 5, 2, monkeypatch)
+    workers = {text.split()[1] for _t, _rc, text, _w in got}
+    assert len(got) == 5 and 1 <= len(workers) <= 2
+
+
+def test_a_dying_worker_costs_its_scenario_only(fake_python, monkeypatch):
+    got = run_pool(fake_python, ['pass', 'die', 'pass', 'fail'], 1, monkeypatch)
+    by = {}
+    for tag, rc, text, _w in got:
+        by.setdefault(tag, []).append((rc, text))
+    assert [rc for rc, _t in by['pass']] == [0, 0] and by['fail'][0][0] == 1
+    rc, text = by['die'][0]
+    assert rc == 2
+    assert 'ERROR the warm worker died (exit code 9)' in text
+    assert '| the fake worker dies' in text
+
+
+def test_pick_keeps_a_worker_on_its_world_and_spreads_the_others():
+    w1, w2 = types.SimpleNamespace(key='A'), types.SimpleNamespace(key=None)
+    pending = [(0, 'a0', 'A'), (1, 'b0', 'B'), (2, 'a1', 'A'), (3, 'c0', 'C')]
+    assert warm._pick(w1, pending, [w1, w2])[1] == 'a0'
+    # w2 has no world: it takes one nobody has, not w1's
+    assert warm._pick(w2, pending, [w1, w2])[1] == 'b0'
+    w2.key = 'B'
+    assert warm._pick(w2, pending, [w1, w2])[1] == 'c0'
+    # only w1's world is left: w2 takes it too (both keep working)
+    assert warm._pick(w2, pending, [w1, w2])[1] == 'a1'
+    assert pending == []
+
+
+def test_sort_by_world_groups_the_examples_by_their_world():
+    files = sorted(os.path.join(EX, f) for f in os.listdir(EX) if f.endswith('.yaml'))
+    items = warm.sort_by_world([(f, [f]) for f in files])
+    assert sorted(tag for _k, tag, _a in items) == files
+    keys = [k for k, _t, _a in items]
+    # each world's scenarios are next to each other
+    assert len(set(keys)) == len([k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]])
+    assert len(set(keys)) >= 3          # office (camera 1 Hz), office (10 Hz), battery_world
+    bad = warm.sort_by_world([('x', ['/no/such.yaml'])])
+    assert bad == [(None, 'x', ['/no/such.yaml'])]
+
+
+def test_world_key_leaves_out_seed_rate_and_phone_pose(tmp_path):
+    def key(text):
+        f = tmp_path / 'k.yaml'
+        f.write_text('duration: 1\n' + text)
+        return world_key(load(str(f)))
+    base = key('world: {args: {camera_rate: 1}}\n')
+    assert key('seed: 9\nreal_time_factor: 1\nworld: {args: {camera_rate: 1}}\n'
+               'phones: [{ns: mobile_device, position: [1, 2, 3], rpy: [0, 0, 1]}]\n') == base
+    assert key('world: {args: {camera_rate: 2}}\n') != base
+    assert key('world: {physics: bullet, args: {camera_rate: 1}}\n') != base
+    f = tmp_path / 'k.yaml'
+    assert world_key(load(str(f)), report='/tmp/r') != base      # the flycam
+
+
+# -- sim_world's side: /gazebo/reload_world ------------------------------------------------
+def spawn_request(x=1.0, y=2.0, z=3.0, yaw=0.0):
+    from mobile_device_sim.srv import SpawnModelRequest
+    from sim_world.transforms import Pose
+    r = SpawnModelRequest()
+    r.model_name, r.model_xml = 'mobile_device', '<robot/>'
+    r.initial_pose = Pose.from_xyz_rpy((x, y, z), (0, 0, yaw)).to_msg()
+    return r
+
+
+def test_with_pose_gives_what_spawn_model_gives():
+    from sim_world.node import _with_pose
+    req = spawn_request()
+    assert _with_pose(req, {}) is req
+    moved = _with_pose(req, {'x': 4.0, 'Y': 0.7})
+    want = spawn_request(x=4.0, yaw=0.7).initial_pose       # what the launch would send
+    assert moved.initial_pose == want
+    assert req.initial_pose == spawn_request().initial_pose   # the remembered one is kept
+    # only the position: the quaternion stays bit for bit
+    q = spawn_request(yaw=0.3)
+    assert _with_pose(q, {'z': 9}).initial_pose.orientation == q.initial_pose.orientation
+
+
+class _Host(object):
+    from sim_world.node import WorldHost
+    _plan = WorldHost._plan
+
+    def __init__(self):
+        self.world = types.SimpleNamespace(seed=5, models={'mobile_device': 1, 'desk': 2})
+        self.rtf = 0.0
+        self.start_models = None
+        self.api = types.SimpleNamespace(spawned={'mobile_device': ('urdf', spawn_request()),
+                                                  'gone': ('sdf', spawn_request())})
+
+
+def req(seed=-1, rtf=-1.0, poses=''):
+    return types.SimpleNamespace(seed=seed, real_time_factor=rtf, start_poses=poses)
+
+
+def test_reload_plan_defaults_and_remembered_models():
+    h = _Host()
+    plan = h._plan(req())
+    assert plan['seed'] == 5 and plan['rtf'] == 0.0 and plan['poses'] == {}
+    # the models spawned and still there start again; deleted ones do not
+    assert [n for n, _k, _r in plan['start']] == ['mobile_device']
+    plan = h._plan(req(seed=0, rtf=1.0, poses='{mobile_device: {x: 1, Y: 0.5}}'))
+    assert plan['seed'] == 0 and plan['rtf'] == 1.0
+    assert plan['poses'] == {'mobile_device': {'x': 1, 'Y': 0.5}}
+    assert h._plan(req(poses='{"mobile_device": {"z": 2.5}}'))['poses']['mobile_device'] == \
+        {'z': 2.5}
+
+
+@pytest.mark.parametrize('r, why', [
+    (req(seed=-2), 'seed must be >= 0 (or -1: keep 5), got -2'),
+    (req(rtf=math.nan), 'real_time_factor must be a number'),
+    (req(poses='[1, 2'), 'start_poses is not YAML'),
+    (req(poses='[1, 2]'), 'start_poses must be a mapping'),
+    (req(poses='{desk: {x: 1}}'), "no remembered model 'desk' (these start again: "
+                                  "mobile_device)"),
+    (req(poses='{mobile_device: {roll: 1}}'), 'give a mapping of x, y, z, R, P, Y'),
+    (req(poses='{mobile_device: 3}'), 'give a mapping of x, y, z, R, P, Y'),
+    (req(poses='{mobile_device: {x: .nan}}'), 'mobile_device.x must be a finite number'),
+    (req(poses='{mobile_device: {x: true}}'), 'mobile_device.x must be a finite number'),
+    (req(poses='{mobile_device: {x: "1"}}'), 'mobile_device.x must be a finite number'),
+])
+def test_reload_plan_refuses_bad_requests(r, why):
+    with pytest.raises(ValueError) as e:
+        _Host()._plan(r)
+    assert why in str(e.value)

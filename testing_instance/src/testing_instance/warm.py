@@ -47,6 +47,7 @@ __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
 NODE = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__)))), 'nodes', 'run_scenario')
 CORE_NODES = ('/rosout', '/sim_world', '/scenario_runner')
+CORE_PARAMS = ('/run_id', '/rosdistro', '/rosversion', '/use_sim_time')
 
 
 class WarmHost(object):
@@ -59,12 +60,11 @@ class WarmHost(object):
         self.launch = None        # Proc: roslaunch of the world
         self.key = None
         self.node_pid = None      # the world node below the launch
-        self.core_params = set()  # what the master set (roscore)
-        self.core_nodes = set()
         self.base_params = set()  # ... and the launch
         self.base_nodes = set()
         self.log_offset = 0
         self.worlds = 0           # worlds launched (1 per key change)
+        self.broken = False       # the master died under this process's node
         self.resets = 0
 
     # -- what a Runner asks --------------------------------------------------------------
@@ -78,18 +78,42 @@ class WarmHost(object):
 
     def prepare(self, runner, deadline):
         """Make the world ``runner``'s scenario needs ready at sim time 0, paused."""
-        if self.core is None or not self.core.alive():
-            self._start_core(deadline)
-        runner.port = self.port
-        runner.init_ros()                # once per worker: the node lives on the master
         key = runner.world_key()
-        if key != self.key or self.launch is None or not self.launch.alive() or \
-                not procs.alive(self.node_pid or -1):
-            self._stop_world()
-            self._clear(self.core_params, self.core_nodes)
-            self._start_world(runner, key, deadline)
-        else:
-            self._clear(self.base_params, self.base_nodes)
+        for attempt in (1, 2):
+            fresh = self.core is None or not self.core.alive()
+            if fresh and self.core is not None and _rospy_up():
+                # this process's node belongs to the master that died: a new worker takes
+                # the next scenario (rospy cannot start over in a process)
+                self.broken = True
+                raise RunError('the warm worker\'s ROS master died', procs.tail(
+                    self.core.log_path))
+            if fresh:                    # roscore starts while the world's roslaunch does
+                self._stop_world()
+                self.port = free_port()
+                os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
+                os.environ.setdefault('ROS_HOSTNAME', 'localhost')
+                self.core = Proc(['roscore', '-p', str(self.port)], self.env(),
+                                 os.path.join(self.dir, 'roscore.log'))
+            runner.port = self.port
+            if fresh or key != self.key or self.launch is None or \
+                    not self.launch.alive() or not procs.alive(self.node_pid or -1):
+                self._stop_world()
+                if not fresh:            # the killed world's registrations go too
+                    self._clear(None, {'/rosout', '/scenario_runner'})
+                self._start_world(runner, key, deadline, wait=fresh)
+                if fresh and not self._await_core(deadline):
+                    # the free port was taken between the look and roscore's bind (another
+                    # worker): once more on a new port
+                    self.core.stop(grace=2.0)
+                    if attempt == 2:
+                        raise RunError('no ROS master on port %d for the warm world'
+                                       % self.port, procs.tail(self.core.log_path))
+                    continue
+                self._await_world(deadline)
+            else:
+                self._clear(self.base_params, self.base_nodes | set(CORE_NODES))
+            break
+        runner.init_ros()                # once per worker: the node lives on the master
         self.reset(runner)
 
     def reset(self, runner):
@@ -154,44 +178,44 @@ class WarmHost(object):
         return rosgraph.Master('/scenario_runner',
                                master_uri='http://localhost:%d' % self.port)
 
-    def _start_core(self, deadline):
-        for attempt in (1, 2):
-            self.port = free_port()
-            self.core = Proc(['roscore', '-p', str(self.port)], self.env(),
-                             os.path.join(self.dir, 'roscore.log'))
-            m = self._master()
-            while time.monotonic() < deadline and self.core.alive():
-                try:
-                    m.getSystemState()
-                    m.lookupNode('/rosout')
-                    m.setParam('/use_sim_time', True)
-                    self.core_params = set(m.getParamNames())
-                    self.core_nodes = _nodes(m)
-                    return
-                except Exception:  # noqa: BLE001 - not up yet
-                    time.sleep(0.02)
-            self.core.stop(grace=2.0)
-            if attempt == 2 or time.monotonic() >= deadline:
-                raise RunError('no ROS master on port %d for the warm world' % self.port,
-                               procs.tail(self.core.log_path))
+    def _await_core(self, deadline):
+        """True once the worker's master and rosout are up (/use_sim_time set); False when
+        roscore exited (its port was taken)."""
+        m = self._master()
+        while time.monotonic() < deadline and self.core.alive():
+            try:
+                m.lookupNode('/rosout')
+                m.setParam('/use_sim_time', True)
+                return True
+            except Exception:  # noqa: BLE001 - not up yet
+                time.sleep(0.02)
+        return False
 
-    def _start_world(self, runner, key, deadline):
+    def _start_world(self, runner, key, deadline, wait=False):
+        """roslaunch the world (``wait``: --wait, while roscore is still starting)."""
         path, args = runner.launch_args()
         # the phone where the launch file puts it: each reload sets the scenario's pose
         args = [a for a in args if not a.startswith('phone_')]
-        self.launch = Proc(['roslaunch', path] + args, self.env(), self.log_path)
+        self.launch = Proc(['roslaunch'] + (['--wait'] if wait else []) + [path] + args,
+                           self.env(), self.log_path)
         self.key = key
         self.log_offset = 0
         self.worlds += 1
+
+    def _await_world(self, deadline):
         if not wait_for_service('/gazebo/reload_world', timeout=max(
                 0.1, deadline - time.monotonic()), caller='/scenario_runner'):
             raise RunError('the warm world did not offer /gazebo/reload_world',
                            procs.tail(self.log_path))
         # the launch's own spawners (the phone, the flycam) are done: their models are the
-        # ones every reload spawns again
+        # ones every reload spawns again. A spawner is done when it said so in the launch's
+        # output ("spawn_model: ..." at its end, before rospy's own slow exit) or is gone.
+        seen = set()
         while time.monotonic() < deadline and self.launch.alive():
-            if not any('spawn_model' in ' '.join(procs.cmdline(p))
-                       for p in procs.descendants(self.launch.p.pid)[1:]):
+            live = {p for p in procs.descendants(self.launch.p.pid)[1:]
+                    if 'spawn_model' in ' '.join(procs.cmdline(p))}
+            seen |= live
+            if not live or _said(self.log_path, b'spawn_model: ') >= len(seen):
                 break
             time.sleep(0.02)
         self.node_pid = next((pid for pid in procs.descendants(self.launch.p.pid)[1:]
@@ -203,28 +227,64 @@ class WarmHost(object):
         self.base_nodes = _nodes(m)
 
     def _stop_world(self):
+        """The world goes at once (SIGKILL to its launch tree): nothing of it is needed
+        any more, and its rospy exit took 0.7 s. The master drops the old /sim_world's
+        registrations when the next world's node registers under that name; what other
+        nodes of the launch left is cleared as gone (_clear)."""
         if self.launch is not None:
-            procs.stop_run([], self.launch, self.node_pid)
+            _kill(self.launch)
         self.launch, self.key, self.node_pid = None, None, None
 
     def _clear(self, params, nodes):
-        """Delete the parameters not in ``params``; unregister what nodes not in ``nodes``
-        that are gone left registered."""
+        """Delete the parameters not in ``params`` (None: all but roscore's own);
+        unregister what nodes not in ``nodes`` that are gone left registered."""
         m = self._master()
-        for name in sorted(set(m.getParamNames()) - set(params)):
+        names = set(m.getParamNames())
+        keep = set(params) if params is not None else {
+            n for n in names if n in CORE_PARAMS or n.startswith('/roslaunch/')}
+        for name in sorted(names - keep):
             try:
                 m.deleteParam(name)
             except Exception:  # noqa: BLE001 - gone with a parent already
                 pass
-        _forget_gone(m, set(nodes) | set(CORE_NODES))
+        _forget_gone(m, set(nodes))
 
     def close(self):
         self._stop_world()
         if self.core is not None:
-            self.core.stop(grace=5.0)
+            _kill(self.core)
             self.core = None
         if not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _kill(proc):
+    """SIGKILL ``proc`` and every process below it; wait for it."""
+    import signal
+    tree = procs.descendants(proc.p.pid)
+    for pid in reversed(tree):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+    proc.finish(time.monotonic() + 5.0)
+    deadline = time.monotonic() + 5.0     # its sockets are closed once each one is gone
+    while any(procs.alive(pid) for pid in tree) and time.monotonic() < deadline:
+        time.sleep(0.005)
+
+
+def _rospy_up():
+    import rospy.core
+    return rospy.core.is_initialized()
+
+
+def _said(path, what):
+    """How many times ``what`` (bytes) is in the file at ``path``."""
+    try:
+        with open(path, 'rb') as f:
+            return f.read().count(what)
+    except OSError:
+        return 0
 
 
 def _size(path):
@@ -314,6 +374,8 @@ def worker_main(stdin=None, stdout=None):
                       % (type(e).__name__, e)})
                 code = EXIT_ERROR
             send({'id': jid, 'exit': code})
+            if host.broken:
+                break                    # the pool starts a new worker for the rest
     finally:
         host.close()
     return 0

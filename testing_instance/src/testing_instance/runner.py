@@ -237,7 +237,7 @@ class Runner(Actions):
                 if n in nodes:
                     names.remove((n, p))
             if names:
-                time.sleep(0.05)
+                time.sleep(0.02)
         if names:
             raise RunError('app(s) %s did not register with the master within 60 s'
                            % ', '.join(n for n, _p in names),
@@ -281,7 +281,7 @@ class Runner(Actions):
             if not missing and topics == last_topics:
                 return
             last_topics = topics
-            time.sleep(0.1)
+            time.sleep(0.02)
 
     # -- ROS side --------------------------------------------------------------------------
     def _init_ros(self):
@@ -835,6 +835,8 @@ class Runner(Actions):
         if self.record_path:
             self._open_bag()
         self._start_apps()
+        if self.warm is not None:
+            self.warm.settle()                   # the last scenario's apps are gone
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
         self.input_node, self.hold_unstamped = self.world_node, True
@@ -960,8 +962,11 @@ class Runner(Actions):
             if self.bag is not None:     # storage faults: one line each, the run goes on
                 self.storage_problems = self.bag.close()
                 self.bag = None
-        if self.warm is not None:        # the apps stop; the world stays for the next one
-            procs.stop_run([p for p in self.procs if p is not self.world_proc])
+        if self.warm is not None:
+            # the world stays for the next scenario; the apps get SIGINT and finish their
+            # rospy exit (0.7 s) while the next scenario's reload and apps start
+            # (WarmHost.leave / settle)
+            self.warm.leave([p for p in self.procs if p is not self.world_proc])
             self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
         else:
             procs.stop_run([p for p in self.procs if p is not self.world_proc],

@@ -65,6 +65,7 @@ class WarmHost(object):
         self.log_offset = 0
         self.worlds = 0           # worlds launched (1 per key change)
         self.broken = False       # the master died under this process's node
+        self.leaving = []         # the last scenario's apps, exiting (leave, settle)
         self.resets = 0
 
     # -- what a Runner asks --------------------------------------------------------------
@@ -115,6 +116,26 @@ class WarmHost(object):
             break
         runner.init_ros()                # once per worker: the node lives on the master
         self.reset(runner)
+
+    def leave(self, apps):
+        """The apps (procs.Proc) of the scenario that ended: SIGINT now; their exit is
+        awaited by ``settle`` (the next scenario, before it subscribes or steps) or
+        ``close``."""
+        for p in apps:
+            p.interrupt()
+        self.leaving += list(apps)
+
+    def settle(self, grace=10.0):
+        """Wait until the last scenario's apps have exited (SIGKILL after ``grace`` s) and
+        remove what the killed ones left registered."""
+        deadline = time.monotonic() + grace
+        killed = False
+        for p in self.leaving:
+            killed |= p.alive() and not _exits(p, deadline)
+            p.finish(deadline)
+        self.leaving = []
+        if killed and self.port:
+            _forget_gone(self._master(), set())
 
     def reset(self, runner):
         from mobile_device_sim.srv import ReloadWorld
@@ -250,12 +271,22 @@ class WarmHost(object):
         _forget_gone(m, set(nodes))
 
     def close(self):
+        self.settle()
         self._stop_world()
         if self.core is not None:
             _kill(self.core)
             self.core = None
         if not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _exits(p, deadline):
+    """True if Proc ``p`` exits by ``deadline``."""
+    try:
+        p.p.wait(max(0.0, deadline - time.monotonic()))
+        return True
+    except subprocess.TimeoutExpired:
+        return False
 
 
 def _kill(proc):

@@ -125,10 +125,18 @@ class _LocalDelivery(object):
         self.queue = []
         self.thread = None
         self.delivered = 0
+        self.closed = False
+
+    def close(self):
+        """The publisher is gone (unregistered): the delivery thread ends."""
+        with self.cond:
+            self.closed = True
+            self.queue = []
+            self.cond.notify()
 
     def put(self, msg):
         sub = _subscriber_impl(self.topic)
-        if sub is None:
+        if sub is None or self.closed:
             return
         if self.inline:
             self._deliver(sub, (msg,))
@@ -149,6 +157,8 @@ class _LocalDelivery(object):
         while not rospy.is_shutdown():
             with self.cond:
                 while not self.queue:
+                    if self.closed:
+                        return
                     self.cond.wait(1.0)
                     if rospy.is_shutdown():
                         return
@@ -208,6 +218,12 @@ def no_yield(pub, inline_local=False):
                 local.put(msg)
         pub.publish = publish
         pub.local_delivery = local
+        orig_unregister = pub.unregister
+
+        def unregister():
+            local.close()           # its thread would wait for messages forever
+            orig_unregister()
+        pub.unregister = unregister
     return pub
 
 

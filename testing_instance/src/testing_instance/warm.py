@@ -47,6 +47,7 @@ __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
 NODE = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__)))), 'nodes', 'run_scenario')
 CORE_NODES = ('/rosout', '/sim_world', '/scenario_runner')
+RSS_GROWTH = 1.5              # relaunch a world node grown by half (WarmHost._grown)
 CORE_PARAMS = ('/run_id', '/rosdistro', '/rosversion', '/use_sim_time')
 
 
@@ -66,6 +67,7 @@ class WarmHost(object):
         self.worlds = 0           # worlds launched (1 per key change)
         self.broken = False       # the master died under this process's node
         self.leaving = []         # the last scenario's apps, exiting (leave, settle)
+        self.rss_base = None      # kB of the world node at its first scenario
         self.resets = 0
 
     # -- what a Runner asks --------------------------------------------------------------
@@ -97,7 +99,8 @@ class WarmHost(object):
                                  os.path.join(self.dir, 'roscore.log'))
             runner.port = self.port
             if fresh or key != self.key or self.launch is None or \
-                    not self.launch.alive() or not procs.alive(self.node_pid or -1):
+                    not self.launch.alive() or not procs.alive(self.node_pid or -1) or \
+                    self._grown():
                 self._stop_world()
                 if not fresh:            # the killed world's registrations go too
                     self._clear(None, {'/rosout', '/scenario_runner'})
@@ -136,6 +139,18 @@ class WarmHost(object):
         self.leaving = []
         if killed and self.port:
             _forget_gone(self._master(), set())
+
+    def _grown(self):
+        """The world node's memory grew past RSS_GROWTH times what it had at its first
+        scenario: relaunch it (each reload leaves about 2 MB of heap the allocator does
+        not give back; bench/soak)."""
+        rss = _rss_kb(self.node_pid)
+        if rss is None:
+            return False
+        if self.rss_base is None:
+            self.rss_base = rss
+            return False
+        return rss > RSS_GROWTH * self.rss_base
 
     def reset(self, runner):
         from mobile_device_sim.srv import ReloadWorld
@@ -219,6 +234,7 @@ class WarmHost(object):
         args = [a for a in args if not a.startswith('phone_')]
         self.launch = Proc(['roslaunch'] + (['--wait'] if wait else []) + [path] + args,
                            self.env(), self.log_path)
+        self.rss_base = None
         self.key = key
         self.log_offset = 0
         self.worlds += 1
@@ -307,6 +323,17 @@ def _kill(proc):
 def _rospy_up():
     import rospy.core
     return rospy.core.is_initialized()
+
+
+def _rss_kb(pid):
+    try:
+        with open('/proc/%d/status' % pid) as f:
+            for ln in f:
+                if ln.startswith('VmRSS:'):
+                    return int(ln.split()[1])
+    except (OSError, TypeError, ValueError):
+        return None
+    return None
 
 
 def _said(path, what):

@@ -195,9 +195,8 @@ def test_a_warm_world_grown_by_half_is_relaunched(monkeypatch):
     h = warm.WarmHost(run_dir='/nonexistent-warm-dir')
     h.node_pid = os.getpid()
     sizes = iter([300000, 400000, 449000, 451000])
-    monkeypatch.setattr(warm, '_rss_kb', lambda pid: next(sizes))
+    monkeypatch.setattr(warm.procs, 'rss_kb', lambda pid: next(sizes))
     assert [h._grown() for _ in range(4)] == [False, False, False, True]
     assert h.rss_base == 300000
-    assert warm._rss_kb.__name__ == '<lambda>'
     monkeypatch.undo()
-    assert warm._rss_kb(os.getpid()) > 1000 and warm._rss_kb(None) is None
+    assert warm.procs.rss_kb(os.getpid()) > 1000 and warm.procs.rss_kb(None) is None

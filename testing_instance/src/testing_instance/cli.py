@@ -146,14 +146,9 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    try:
-        values = _values(a, files[0])
-    except ScenarioError as e:
-        print('ERROR ' + '\n  '.join(e.problems))
+    res = _run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port)
+    if res is None:
         return EXIT_ERROR
-    res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
-                   junit=a.junit, real_time_factor=a.rtf, attach=a.attach, replay=a.replay,
-                   report=a.report, port=a.port)
     _graph_gone[0] = not a.attach
     if a.text:          # rostest --text: the summary a rosunit test node prints
         errs = [v.name for v in res.verdicts if v.error] + (['run'] if res.error else [])
@@ -177,18 +172,21 @@ def _values(a, path):
 def run_argv(argv, warm=None, out=None):
     """Run one run_scenario command line (a single scenario) in this process, in the warm
     world ``warm`` (a testing_instance.warm.WarmHost); the exit code."""
-    out = out or print
     a = _parser('run_scenario').parse_args(list(argv))
-    files = _expand(a.files)
+    res = _run_one(a, _expand(a.files)[0], out=out, warm=warm)
+    return EXIT_ERROR if res is None else res.exit_code
+
+
+def _run_one(a, path, out=None, **kw):
+    """Run scenario ``path`` with the parsed arguments ``a`` (and run_file's ``kw``): its
+    Result, or None when --set is bad (said through ``out``)."""
     try:
-        values = _values(a, files[0])
+        values = _values(a, path)
     except ScenarioError as e:
-        out('ERROR ' + '\n  '.join(e.problems))
-        return EXIT_ERROR
-    res = run_file(files[0], values=values, seed=a.seed, record=_record_arg(a.record),
-                   junit=a.junit, real_time_factor=a.rtf, report=a.report, warm=warm,
-                   out=out)
-    return res.exit_code
+        (out or print)('ERROR ' + '\n  '.join(e.problems))
+        return None
+    return run_file(path, values=values, seed=a.seed, record=_record_arg(a.record),
+                    junit=a.junit, real_time_factor=a.rtf, report=a.report, out=out, **kw)
 
 
 def world_key_of(argv):

@@ -7,7 +7,7 @@ import time
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
 __all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
-           'read_chars', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
+           'read_chars', 'rss_kb', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
 
 
 def tail(path, n=25):
@@ -189,16 +189,26 @@ def thread_states(pid):
     return out
 
 
-def read_chars(pid):
-    """Bytes the process has read so far (/proc/PID/io rchar), or None."""
+def _proc_number(pid, name, key):
+    """The number after ``key`` in /proc/PID/``name``, or None."""
     try:
-        with open('/proc/%d/io' % pid) as f:
+        with open('/proc/%d/%s' % (pid, name)) as f:
             for ln in f:
-                if ln.startswith('rchar:'):
+                if ln.startswith(key):
                     return int(ln.split()[1])
-    except (OSError, ValueError):
+    except (OSError, ValueError, TypeError):
         return None
     return None
+
+
+def read_chars(pid):
+    """Bytes the process has read so far (/proc/PID/io rchar), or None."""
+    return _proc_number(pid, 'io', 'rchar:')
+
+
+def rss_kb(pid):
+    """Resident memory of the process in kB (/proc/PID/status VmRSS), or None."""
+    return _proc_number(pid, 'status', 'VmRSS:')
 
 
 def socket_inodes(pid):

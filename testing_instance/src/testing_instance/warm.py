@@ -144,7 +144,7 @@ class WarmHost(object):
         """The world node's memory grew past RSS_GROWTH times what it had at its first
         scenario: relaunch it (each reload leaves about 2 MB of heap the allocator does
         not give back; bench/soak)."""
-        rss = _rss_kb(self.node_pid)
+        rss = procs.rss_kb(self.node_pid)
         if rss is None:
             return False
         if self.rss_base is None:
@@ -323,17 +323,6 @@ def _kill(proc):
 def _rospy_up():
     import rospy.core
     return rospy.core.is_initialized()
-
-
-def _rss_kb(pid):
-    try:
-        with open('/proc/%d/status' % pid) as f:
-            for ln in f:
-                if ln.startswith('VmRSS:'):
-                    return int(ln.split()[1])
-    except (OSError, TypeError, ValueError):
-        return None
-    return None
 
 
 def _said(path, what):

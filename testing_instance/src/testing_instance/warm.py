@@ -30,6 +30,7 @@ import json
 import os
 import queue
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -64,11 +65,9 @@ class WarmHost(object):
         self.base_params = set()  # ... and the launch
         self.base_nodes = set()
         self.log_offset = 0
-        self.worlds = 0           # worlds launched (1 per key change)
         self.broken = False       # the master died under this process's node
         self.leaving = []         # the last scenario's apps, exiting (leave, settle)
         self.rss_base = None      # kB of the world node at its first scenario
-        self.resets = 0
 
     # -- what a Runner asks --------------------------------------------------------------
     def env(self):
@@ -134,8 +133,8 @@ class WarmHost(object):
         deadline = time.monotonic() + grace
         killed = False
         for p in self.leaving:
-            killed |= p.alive() and not _exits(p, deadline)
-            p.finish(deadline)
+            p.finish(deadline)            # SIGKILL at the deadline
+            killed |= p.p.returncode == -signal.SIGKILL
         self.leaving = []
         if killed and self.port:
             _forget_gone(self._master(), set())
@@ -169,7 +168,6 @@ class WarmHost(object):
         if not r.success:
             raise RunError('the warm world did not reload: %s' % r.status_message,
                            self.log_tail())
-        self.resets += 1
 
     @property
     def log_path(self):
@@ -237,7 +235,6 @@ class WarmHost(object):
         self.rss_base = None
         self.key = key
         self.log_offset = 0
-        self.worlds += 1
 
     def _await_world(self, deadline):
         if not wait_for_service('/gazebo/reload_world', timeout=max(
@@ -296,18 +293,8 @@ class WarmHost(object):
             shutil.rmtree(self.dir, ignore_errors=True)
 
 
-def _exits(p, deadline):
-    """True if Proc ``p`` exits by ``deadline``."""
-    try:
-        p.p.wait(max(0.0, deadline - time.monotonic()))
-        return True
-    except subprocess.TimeoutExpired:
-        return False
-
-
 def _kill(proc):
     """SIGKILL ``proc`` and every process below it; wait for it."""
-    import signal
     tree = procs.descendants(proc.p.pid)
     for pid in reversed(tree):
         try:

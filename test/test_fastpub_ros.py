@@ -37,10 +37,32 @@ PUBLISHER = textwrap.dedent('''
     inline_threads = []
     sub3 = rospy.Subscriber('/probe_inline', Image,
                             lambda m: inline_threads.append(threading.current_thread().name))
+    # deliver_inline (an embedded world's runner): one callback of a topic in the publishing
+    # thread, the other one's in the delivery thread; unstamped messages timed by sim time
+    from std_msgs.msg import String
+    me = rospy.get_caller_id()
+    clock = [0.0]
+    fastpub.set_sim_clock(lambda: clock[0])
+    fastpub.take_times(me)
+    pub4 = fastpub.publisher('/probe_mixed', String, queue_size=10)
+    mixed_inline, mixed_thread = [], []
+    def cb_inline(m):
+        mixed_inline.append((m.data, threading.current_thread().name))
+    def cb_thread(m):
+        mixed_thread.append((m.data, threading.current_thread().name))
+    fastpub.deliver_inline(cb_inline)
+    sub4a = rospy.Subscriber('/probe_mixed', String, cb_inline)
+    sub4b = rospy.Subscriber('/probe_mixed', String, cb_thread)
     deadline = time.time() + 30
     while (pub.get_num_connections() < 2 or pub2.get_num_connections() < 1
-           or pub3.get_num_connections() < 1) and time.time() < deadline:
+           or pub3.get_num_connections() < 1 or pub4.get_num_connections() < 1) and \
+            time.time() < deadline:
         time.sleep(0.05)
+    for i in range(5):
+        clock[0] = 0.5 * i
+        pub4.publish(String('m%%d' %% i))
+    mixed_inline_now = len(mixed_inline)
+    mixed_times = fastpub.take_times(me).get('/probe_mixed')
     conns_before = pub.get_num_connections()
     for i in range(40):
         m = Image(height=1, width=4, encoding='mono8', step=4, data=bytes([i, 1, 2, 3]))
@@ -53,6 +75,7 @@ PUBLISHER = textwrap.dedent('''
     deadline = time.time() + 10
     while len(got) < 40 and time.time() < deadline:
         time.sleep(0.05)
+    counts = fastpub.handed_to(me)
     gate.set()
     time.sleep(0.5)
     same = sum(1 for a, b in zip(sent, got) if a is b)
@@ -64,7 +87,10 @@ PUBLISHER = textwrap.dedent('''
     print(json.dumps(dict(conns_before=conns_before, local=len(got), same_objects=same,
                           order=[m.header.frame_id for m in got] == ['f%%d' %% i for i in range(40)],
                           slow=got_slow, conns_after=pub.get_num_connections(),
-                          inline=inline_threads, me=threading.current_thread().name)),
+                          inline=inline_threads, me=threading.current_thread().name,
+                          counts=counts, mixed_inline=mixed_inline,
+                          mixed_inline_now=mixed_inline_now, mixed_thread=mixed_thread,
+                          mixed_times=mixed_times, other=fastpub.handed_to('/someone_else'))),
           flush=True)
     time.sleep(2.0)
 ''')
@@ -135,5 +161,18 @@ def test_local_objects_remote_bytes_and_cleanup(roscore):
     assert res['slow'][0] == 0 and res['slow'][-1] == 39 and len(res['slow']) < 10, res['slow']
     assert res['conns_after'] == 1                  # the unregistered local one was dropped
     assert res['inline'] == [res['me']] * 40        # inline_local: in the publishing thread
+    # this node's own subscribers are counted as a remote one is (the slice handshake of
+    # an embedded world): handed, and of those dropped by the subscriber's full queue
+    assert res['counts']['/probe'] == [40, 0]
+    assert res['counts']['/probe_slow'] == [40, 40 - len(res['slow'])], res
+    assert res['counts']['/probe_mixed'] == [5, 0]
+    assert '/probe' not in res['other']             # only this node's own are local
+    # deliver_inline: that callback had every message before publish() returned, in the
+    # publishing thread; the topic's other callback in the delivery thread, in order
+    assert res['mixed_inline_now'] == 5
+    assert res['mixed_inline'] == [['m%d' % i, res['me']] for i in range(5)]
+    assert [d for d, _t in res['mixed_thread']] == ['m%d' % i for i in range(5)]
+    assert all(t.startswith('local delivery') for _d, t in res['mixed_thread'])
+    assert res['mixed_times'] == [0.0, 0.5, 1.0, 1.5, 2.0]   # the sim time at hand-over
     got = json.loads(rout.strip().splitlines()[-1])
     assert got == [['f%d' % i, [i, 1, 2, 3]] for i in range(40)], rerr[-2000:]

@@ -19,12 +19,14 @@ import logging
 import threading
 import time
 
-__all__ = ['NoYieldConnection', 'handed_to', 'no_yield', 'publisher', 'set_sim_clock',
-           'take_times']
+__all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'no_yield', 'publisher',
+           'set_sim_clock', 'take_times']
 
 log = logging.getLogger('sim_world.fastpub')
 
 _sim_clock = [None]
+_locals = []                   # the live _LocalDelivery objects
+_inline_callbacks = set()      # in-process subscriber callbacks run in the publishing thread
 _timed_subscribers = set()     # caller ids that asked for times (take_times)
 MAX_TIMES = 100000             # per connection, should a subscriber stop asking
 
@@ -118,14 +120,22 @@ class _LocalDelivery(object):
     as rospy runs callbacks in a receive thread. The subscriber's queue_size holds: the
     oldest messages are dropped when it is full."""
 
-    def __init__(self, topic, inline=False):
+    def __init__(self, topic, inline=False, unstamped=False):
         self.topic = topic
         self.inline = inline
+        self.unstamped = unstamped
         self.cond = threading.Condition(threading.Lock())
         self.queue = []
         self.thread = None
         self.delivered = 0
         self.closed = False
+        # as NoYieldConnection's, for this node's own subscribers (an embedded world's
+        # runner is one): messages handed over, of those dropped by a full queue, and the
+        # sim times of the unstamped ones since the last take_times
+        self.handed = 0
+        self.dropped = 0
+        self.times = None
+        _locals.append(self)
 
     def close(self):
         """The publisher is gone (unregistered): the delivery thread ends."""
@@ -133,24 +143,66 @@ class _LocalDelivery(object):
             self.closed = True
             self.queue = []
             self.cond.notify()
+        try:
+            _locals.remove(self)
+        except ValueError:
+            pass
+
+    def _note(self):
+        """Count a message handed over (under self.cond)."""
+        self.handed += 1
+        if self.times is None and self.unstamped and _own_id() in _timed_subscribers:
+            self.times = []
+        if self.times is not None and _sim_clock[0] is not None:
+            self.times.append(_sim_clock[0]())
+            if len(self.times) > MAX_TIMES:
+                del self.times[:len(self.times) - MAX_TIMES]
 
     def put(self, msg):
         sub = _subscriber_impl(self.topic)
         if sub is None or self.closed:
             return
         if self.inline:
+            with self.cond:
+                self._note()
             self._deliver(sub, (msg,))
             return
-        qs = sub.queue_size or 0
+        if _inline_callbacks:
+            now = [cc for cc in sub.callbacks if cc[0] in _inline_callbacks]
+            if now:
+                with self.cond:
+                    self._note()
+                for cb, cb_args in now:
+                    sub._invoke_callback(msg, cb, cb_args)
+                if len(now) == len(sub.callbacks):
+                    return
+                with self.cond:
+                    self._queue(sub, msg, account=False)
+                return
         with self.cond:
-            self.queue.append(msg)
-            if qs > 0 and len(self.queue) > qs:
-                del self.queue[:len(self.queue) - qs]
-            self.cond.notify()
-            if self.thread is None:
-                self.thread = threading.Thread(target=self._run, daemon=True,
-                                               name='local delivery %s' % self.topic)
-                self.thread.start()
+            self._note()
+            self._queue(sub, msg)
+
+    def _queue(self, sub, msg, account=True):
+        """For the delivery thread (under self.cond). A full queue drops its oldest; with
+        ``account`` those count as dropped (their times go too): not when an inline
+        callback had the message already."""
+        qs = sub.queue_size or 0
+        self.queue.append(msg)
+        if qs > 0 and len(self.queue) > qs:
+            n = len(self.queue) - qs
+            if account and self.times is not None:      # the oldest queued ones' times
+                i = len(self.times) - len(self.queue)
+                if i >= 0:
+                    del self.times[i:i + n]
+            del self.queue[:n]
+            if account:
+                self.dropped += n
+        self.cond.notify()
+        if self.thread is None:
+            self.thread = threading.Thread(target=self._run, daemon=True,
+                                           name='local delivery %s' % self.topic)
+            self.thread.start()
 
     def _run(self):
         import rospy
@@ -168,10 +220,24 @@ class _LocalDelivery(object):
                 self._deliver(sub, msgs)
 
     def _deliver(self, sub, msgs):
+        inline = _inline_callbacks if not self.inline else ()
         for msg in msgs:
             for cb, cb_args in sub.callbacks:
-                sub._invoke_callback(msg, cb, cb_args)
+                if cb not in inline:            # (those had it in the publishing thread)
+                    sub._invoke_callback(msg, cb, cb_args)
             self.delivered += 1
+
+
+def deliver_inline(callback, on=True):
+    """Run ``callback`` (a rospy.Subscriber callback of this node) in the publishing thread
+    for messages of this node's own publishers, instead of waking a delivery thread per
+    message: for a cheap callback whose caller waits for the publisher anyway (the runner
+    of an embedded world, whose step is a function call: one thread and no GIL hand-offs).
+    The callback must not wait for the publishing thread."""
+    if on:
+        _inline_callbacks.add(callback)
+    else:
+        _inline_callbacks.discard(callback)
 
 
 def no_yield(pub, inline_local=False):
@@ -191,7 +257,8 @@ def no_yield(pub, inline_local=False):
         return pub
     orig_add = impl.add_connection
     topic = impl.resolved_name
-    local = _LocalDelivery(topic, inline_local) if not impl.is_latch else None
+    local = _LocalDelivery(topic, inline_local, not getattr(pub.data_class, '_has_header', True)
+                           ) if not impl.is_latch else None
 
     def add_connection(c):
         if local is not None and getattr(c, 'endpoint_id', None) == rospy.get_caller_id():
@@ -252,6 +319,19 @@ def _connections_to(subscriber, topic_manager=None):
                 yield topic, c
 
 
+def _own_id():
+    import rospy
+    return rospy.get_caller_id()
+
+
+def _locals_to(subscriber):
+    """The local deliveries that reach ``subscriber`` (this node itself: an embedded world's
+    runner) and have a subscriber now."""
+    if not subscriber or subscriber != _own_id():
+        return []
+    return [d for d in list(_locals) if not d.closed and _subscriber_impl(d.topic) is not None]
+
+
 def handed_to(subscriber, topic_manager=None):
     """{topic: (handed, dropped)} over this node's publisher connections to the node
     ``subscriber`` (its caller id) that go through :class:`NoYieldConnection`: how many
@@ -263,6 +343,10 @@ def handed_to(subscriber, topic_manager=None):
         h, d = out.get(topic, (0, 0))
         with c._lock:
             out[topic] = (h + c.handed, d + c.dropped)
+    for loc in _locals_to(subscriber):
+        h, d = out.get(loc.topic, (0, 0))
+        with loc.cond:
+            out[loc.topic] = (h + loc.handed, d + loc.dropped)
     return out
 
 
@@ -280,4 +364,10 @@ def take_times(subscriber, topic_manager=None):
                 got, c.times = c.times, []
             if got:
                 out.setdefault(topic, []).extend(got)
+    for loc in _locals_to(subscriber):
+        if loc.unstamped:
+            with loc.cond:
+                got, loc.times = loc.times, []
+            if got:
+                out.setdefault(loc.topic, []).extend(got)
     return out

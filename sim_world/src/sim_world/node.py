@@ -33,6 +33,10 @@ DEFAULT_WORLD = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__
                                               '..', '..', 'worlds', 'office.world'))
 
 
+class SetupError(Exception):
+    """The node's parameters or world file are wrong: the one line to log (FATAL)."""
+
+
 def main(argv=None):
     import faulthandler
     import signal
@@ -42,25 +46,37 @@ def main(argv=None):
     if not rospy.has_param('/use_sim_time'):
         rospy.set_param('/use_sim_time', True)
     rospy.init_node('sim_world')
+    try:
+        host = host_from_params(argv)
+    except SetupError as e:
+        rospy.logfatal('sim_world: %s' % e)
+        return 1
+    thread, failed = host.start()
+    rospy.spin()
+    thread.join(timeout=10.0)
+    return 1 if failed else 0
+
+
+def host_from_params(argv=()):
+    """The WorldHost this (initialised) node's private parameters describe (the module
+    docstring lists them); ``argv[1]``, when given, is the world file. SetupError: what is
+    wrong. Used by the sim_world node and by run_scenario's embedded world."""
     world_file = rospy.get_param('~world_file', argv[1] if len(argv) > 1 else DEFAULT_WORLD)
     engine = rospy.get_param('~physics_engine', 'ode')
     if engine not in ENGINES:
-        rospy.logfatal('sim_world: unknown ~physics_engine %r (choose one of %s)'
-                       % (engine, ', '.join(sorted(ENGINES))))
-        return 1
+        raise SetupError('unknown ~physics_engine %r (choose one of %s)'
+                         % (engine, ', '.join(sorted(ENGINES))))
     try:
         desc = load_world_file(world_file)
     except ModelError as e:
-        rospy.logfatal('sim_world: cannot load world file %s: %s' % (world_file, e))
-        return 1
+        raise SetupError('cannot load world file %s: %s' % (world_file, e))
     step = float(rospy.get_param('~max_step_size', desc.max_step_size or 0.001))
     rtf = rospy.get_param('~real_time_factor', None)
     if rtf is None:
         rtf = desc.real_time_factor if desc.real_time_factor is not None else 1.0
     rtf = float(rtf)
     if rtf < 0:
-        rospy.logfatal('sim_world: ~real_time_factor must be >= 0, got %g' % rtf)
-        return 1
+        raise SetupError('~real_time_factor must be >= 0, got %g' % rtf)
     seed = rospy.get_param('~seed', None)
     if seed is not None and seed != '':
         try:
@@ -68,8 +84,7 @@ def main(argv=None):
             if seed < 0:
                 raise ValueError
         except (TypeError, ValueError):
-            rospy.logfatal('sim_world: ~seed must be a whole number >= 0, got %r' % (seed,))
-            return 1
+            raise SetupError('~seed must be a whole number >= 0, got %r' % (seed,))
     else:
         seed = None
     try:
@@ -77,43 +92,14 @@ def main(argv=None):
                          paused=bool(rospy.get_param('~paused', False)),
                          publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
     except ValueError as e:
-        rospy.logfatal('sim_world: %s' % e)
-        return 1
+        raise SetupError(str(e))
     except ModelError as e:
-        rospy.logfatal('sim_world: cannot load world file %s: %s' % (world_file, e))
-        return 1
+        raise SetupError('cannot load world file %s: %s' % (world_file, e))
     world = host.world
     rospy.loginfo('sim_world: world %r from %s, %d models, physics %s, step %g s, '
                   'real_time_factor %g, seed %d', world.name, world_file, len(world.models),
                   engine, step, rtf, world.seed)
-    # The world runs in its own thread; the main thread only waits in rospy.spin(). rospy
-    # handles SIGINT/SIGTERM in the main thread: had that thread been inside a publish()
-    # when the signal came, rospy's shutdown would wait for the lock that very thread holds,
-    # and roslaunch had to escalate to SIGKILL.
-    failed = []
-
-    def world_thread():
-        try:
-            host.run()
-        except Exception as e:  # noqa: BLE001 - say what stopped the world, then stop the node
-            if rospy.is_shutdown() or rospy.core.is_shutdown_requested():
-                # the node is shutting down (Ctrl-C, roslaunch's end, rostest's teardown)
-                # while a step was publishing: rospy closed the topic under it. A normal end,
-                # not a failure (it used to print a FATAL line at every tools/demo --exit).
-                rospy.logdebug('sim_world: world loop ended with the node (%s: %s)'
-                               % (type(e).__name__, e))
-                return
-            failed.append(e)
-            rospy.logfatal('sim_world: the world loop stopped: %s: %s' % (type(e).__name__, e))
-            rospy.signal_shutdown('world loop failed')
-        finally:
-            host.world.shutdown()
-
-    thread = threading.Thread(target=world_thread, name='sim_world_loop', daemon=True)
-    thread.start()
-    rospy.spin()
-    thread.join(timeout=10.0)
-    return 1 if failed else 0
+    return host
 
 
 POSE_KEYS = ('x', 'y', 'z', 'R', 'P', 'Y')
@@ -147,6 +133,36 @@ class WorldHost(object):
                       ros_enabled=True, seed=seed, logger=_RospyLogger())
         world.load_world_file(self.world_file)
         return world
+
+    def start(self):
+        """Run the world in a thread of its own; returns (thread, [the exception that
+        stopped it, if any]). The calling (main) thread stays free: rospy handles SIGINT and
+        SIGTERM in the main thread, and had that thread been inside a publish() when the
+        signal came, rospy's shutdown would wait for the lock that very thread holds (and
+        roslaunch had to escalate to SIGKILL)."""
+        failed = []
+
+        def world_thread():
+            try:
+                self.run()
+            except Exception as e:  # noqa: BLE001 - say what stopped it, stop the node
+                if rospy.is_shutdown() or rospy.core.is_shutdown_requested():
+                    # the node is shutting down (Ctrl-C, roslaunch's end, rostest's
+                    # teardown) while a step was publishing: rospy closed the topic under
+                    # it. A normal end, not a failure.
+                    rospy.logdebug('sim_world: world loop ended with the node (%s: %s)'
+                                   % (type(e).__name__, e))
+                    return
+                failed.append(e)
+                rospy.logfatal('sim_world: the world loop stopped: %s: %s'
+                               % (type(e).__name__, e))
+                rospy.signal_shutdown('world loop failed')
+            finally:
+                self.world.shutdown()
+
+        thread = threading.Thread(target=world_thread, name='sim_world_loop', daemon=True)
+        thread.start()
+        return thread, failed
 
     # -- the loop thread ---------------------------------------------------------------------
     def run(self):

@@ -31,6 +31,10 @@ def _parser(prog):
                    help='0 = as fast as possible (override the scenario\'s)')
     p.add_argument('--attach', action='store_true',
                    help='use the running world at ROS_MASTER_URI (rostest)')
+    p.add_argument('--embedded', action='store_true',
+                   help='run the world in this process (one scenario, no --attach, '
+                   '--replay, --jobs or --sweep): this node becomes the launch file\'s '
+                   'sim_world node and steps the World by a function call')
     p.add_argument('--replay', metavar='BAG|MCAP', help='play a recording (rosbag or MCAP) '
                    'as the clock source, no world; the apps and expectations run again')
     p.add_argument('--jobs', type=int, default=0, metavar='N',
@@ -133,6 +137,11 @@ def main(argv=None, prog='run_scenario'):
     files = _expand(a.files)
     if a.check:
         return check(files, sets=a.set or (), max_runs=a.max_runs)
+    if a.embedded and (a.jobs or len(files) > 1 or a.attach or a.replay or a.sweep or
+                       a.cluster):
+        print('ERROR --embedded runs one scenario with a world of its own; it does not go '
+              'with --jobs, several files, --attach, --replay, --sweep or --cluster')
+        return EXIT_ERROR
     if a.sweep or a.cluster:
         from . import sweep
         remote = None
@@ -146,7 +155,8 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    res = _run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port)
+    res = _run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port,
+                   embedded=a.embedded)
     if res is None:
         return EXIT_ERROR
     _graph_gone[0] = not a.attach

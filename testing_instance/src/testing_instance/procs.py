@@ -6,7 +6,7 @@ import time
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
+__all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port', 'kill_tree',
            'read_chars', 'rss_kb', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
 
 
@@ -108,6 +108,20 @@ def stop_run(apps, launch=None, node=None, grace=10.0):
                 except OSError:
                     pass
     launch.finish(deadline if not tree else time.monotonic() + 5.0)
+
+
+def kill_tree(proc):
+    """SIGKILL ``proc`` and every process below it; wait for it."""
+    tree = descendants(proc.p.pid)
+    for pid in reversed(tree):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+    proc.finish(time.monotonic() + 5.0)
+    deadline = time.monotonic() + 5.0     # its sockets are closed once each one is gone
+    while any(alive(pid) for pid in tree) and time.monotonic() < deadline:
+        time.sleep(0.005)
 
 
 # -- what /proc says about a process tree (the runner's evidence about apps) ----------------

@@ -59,7 +59,7 @@ __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS',
 class Runner(Actions):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
-                 warm=None):
+                 warm=None, embedded=False):
         self.sc = scenario
         self.seed = scenario.seed if seed is None else int(seed)
         self.rtf = scenario.real_time_factor if real_time_factor is None \
@@ -73,6 +73,10 @@ class Runner(Actions):
         self.run_dir = run_dir or tempfile.mkdtemp(prefix='scenario_')
         self.port = port
         self.warm = warm if not (self.attach or replay) else None  # a WarmHost (warm.py)
+        # the World in this process (embed.py): this node becomes the world node
+        self.embedded = bool(embedded) and not (self.attach or replay or self.warm)
+        self.host = None           # embedded: the sim_world WorldHost
+        self.world_logfile = None  # embedded: the world's log lines (embed.LogFile)
         self.procs = []
         self.world_proc = None
         self.inbox = Inbox()
@@ -137,6 +141,8 @@ class Runner(Actions):
         self.out(text)
 
     def world_log(self):
+        if self.world_logfile is not None:
+            return self.world_logfile.tail()
         if self.warm is not None:
             return self.warm.log_tail()
         if self.world_proc is not None:
@@ -289,9 +295,31 @@ class Runner(Actions):
                            if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
         import rospy
         import rospy.core
-        if not rospy.core.is_initialized():      # a warm worker's runners share the node
+        if self.embedded:
+            # one rospy process is one node: the runner is the world node (embed.py)
+            argv = self.launch_plan.world_argv()
+            rospy.init_node(self.launch_plan.world.name, argv=argv, disable_signals=True)
+            self._embed_world(argv)
+        elif not rospy.core.is_initialized():    # a warm worker's runners share the node
             rospy.init_node('scenario_runner', disable_signals=True)
         self.rospy = rospy
+
+    def _embed_world(self, argv):
+        """Build the launch file's world in this process and start its loop thread, as the
+        sim_world executable does (sim_world.node)."""
+        from sim_world.node import SetupError, host_from_params
+        from .embed import LogFile
+        self.world_logfile = LogFile(os.path.join(self.run_dir, 'world.log'))
+        try:
+            self.host = host_from_params(argv)
+        except SetupError as e:
+            raise RunError('the embedded world %s: %s' % (self.launch_plan.world_name, e),
+                           self.world_log())
+        # the world's messages reach _cb in the world's own thread (no delivery thread woken
+        # per message, no GIL hand-off): the runner waits for the step anyway
+        from sim_world import fastpub
+        fastpub.deliver_inline(self._cb)
+        self.world_thread, self.world_failed = self.host.start()
 
     def _world_settings(self):
         """Attached: the seed and real-time factor are the running world's."""
@@ -335,7 +363,11 @@ class Runner(Actions):
         the app watch's /proc/net/tcp walks to step over."""
         import rospy
         if name not in self._proxies:
-            self._proxies[name] = rospy.ServiceProxy(name, typ, persistent=True)
+            local = None
+            if self.embedded:       # the world's services are this process's: a call
+                from .embed import local_service
+                local = local_service(name)
+            self._proxies[name] = local or rospy.ServiceProxy(name, typ, persistent=True)
         return self._proxies[name]
 
     def _wait_phones(self, deadline):
@@ -370,9 +402,14 @@ class Runner(Actions):
                     'the ROS master' if 'master' in what else 'the world', self._fault_t(),
                     what, pid),
                     self.world_log() + self._ros_log(what))
+        if self.host is not None and self.world_failed:
+            e = self.world_failed[0]
+            raise RunError('the embedded world stopped at sim time %.3f s: %s: %s'
+                           % (self._fault_t(), type(e).__name__, e), self.world_log())
         if self.world_proc is not None and not self.world_proc.alive():
-            raise RunError('the world died at sim time %.3f s (exit code %s)'
-                           % (self._fault_t(), self.world_proc.p.returncode), self.world_log())
+            raise RunError('the %s died at sim time %.3f s (exit code %s)'
+                           % ('ROS master (roscore)' if self.embedded else 'world',
+                              self._fault_t(), self.world_proc.p.returncode), self.world_log())
         for name, p in self.app_procs:
             code = p.p.poll()
             if code is None or name in self.apps_finished:
@@ -562,8 +599,11 @@ class Runner(Actions):
 
     def _cb(self, msg, topic):
         t = self._stamp_of(msg)
-        hdr = getattr(msg, '_connection_header', None) or {}
-        caller = hdr.get('callerid')
+        hdr = getattr(msg, '_connection_header', None)
+        # a message handed over in this process (an embedded world's) has no header
+        caller = hdr.get('callerid') if hdr else (self.world_node if self.embedded else None)
+        if self.embedded and hdr and any(topic == tp for tp, _typ in self.pubs):
+            caller = None   # this node's own action publisher, not the world it also is
         world = caller == self.world_node
         if t is None and self.hold_unstamped:
             # no stamp: timed at the end of the handshake that collects it, the world's by
@@ -785,6 +825,8 @@ class Runner(Actions):
 
     def _on_timeout(self):
         self.timed_out = True
+        if self.host is not None:         # unblocks the embedded world's step
+            self.rospy.signal_shutdown('scenario timeout')
         if self.world_proc is not None:   # unblocks a step_world call
             self.world_proc.stop(grace=5.0)
 
@@ -794,6 +836,8 @@ class Runner(Actions):
             # a farm's warm world: started over (or launched, for a new world) at sim time 0
             self.warm.prepare(self, deadline)
             self.world_proc = self.warm.launch
+        elif self.embedded:
+            self._start_embedded(deadline)
         elif not self.attach:
             for attempt in (1, 2):
                 if self.port is None or attempt == 2:
@@ -828,6 +872,31 @@ class Runner(Actions):
         self._services()
         self._wait_phones(deadline)
         self._find_watched()
+
+    def _start_embedded(self, deadline):
+        """A master of its own, the launch file's parameters and other nodes; the world
+        itself is built by _init_ros in this process (embed.py)."""
+        from .embed import plan_launch
+        import rosgraph
+        path, args = self.launch_args()
+        for attempt in (1, 2):
+            if self.port is None or attempt == 2:
+                self.port = free_port()
+            self._start_roscore()
+            if attempt == 1:   # roslaunch's loader (xacro) runs while the master starts
+                self.launch_plan = plan_launch(path, args, self.port)
+            try:
+                self._wait_master(deadline)
+                break
+            except RunError:
+                if attempt == 2 or time.monotonic() >= deadline:
+                    raise
+                self.world_proc.stop(grace=2.0)
+        m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
+        m.setParam('/use_sim_time', True)
+        self.launch_plan.set_params(m)
+        for p in self.launch_plan.start_nodes(self._env(), self.run_dir):
+            self.procs.append(p)
 
     def _run_live(self):
         self._start_world()
@@ -929,7 +998,9 @@ class Runner(Actions):
         import rosgraph
         from std_msgs.msg import String
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
-        inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes)
+        own = {topic for topic, _typ in self.pubs}    # an embedded world's node is ours too
+        inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes
+                        and t not in own)
         if '/gazebo/environment' not in inputs:
             inputs.append('/gazebo/environment')
         if getattr(self, 'replay_meta', None):
@@ -968,6 +1039,14 @@ class Runner(Actions):
             # (WarmHost.leave / settle)
             self.warm.leave([p for p in self.procs if p is not self.world_proc])
             self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
+        elif self.embedded:
+            # the world is this process (it ends with it); its launch nodes and apps stop
+            # as a run's apps do, the master goes at once
+            procs.stop_run([p for p in self.procs if p is not self.world_proc])
+            if self.world_proc is not None:
+                procs.kill_tree(self.world_proc)
+            if self.world_logfile is not None:
+                self.world_logfile.handler.flush()
         else:
             procs.stop_run([p for p in self.procs if p is not self.world_proc],
                            self.world_proc, self.watch.get('the world node /sim_world'))

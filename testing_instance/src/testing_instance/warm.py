@@ -266,7 +266,7 @@ class WarmHost(object):
         registrations when the next world's node registers under that name; what other
         nodes of the launch left is cleared as gone (_clear)."""
         if self.launch is not None:
-            _kill(self.launch)
+            procs.kill_tree(self.launch)
         self.launch, self.key, self.node_pid = None, None, None
 
     def _clear(self, params, nodes):
@@ -287,24 +287,10 @@ class WarmHost(object):
         self.settle()
         self._stop_world()
         if self.core is not None:
-            _kill(self.core)
+            procs.kill_tree(self.core)
             self.core = None
         if not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.dir, ignore_errors=True)
-
-
-def _kill(proc):
-    """SIGKILL ``proc`` and every process below it; wait for it."""
-    tree = procs.descendants(proc.p.pid)
-    for pid in reversed(tree):
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except OSError:
-            pass
-    proc.finish(time.monotonic() + 5.0)
-    deadline = time.monotonic() + 5.0     # its sockets are closed once each one is gone
-    while any(procs.alive(pid) for pid in tree) and time.monotonic() < deadline:
-        time.sleep(0.005)
 
 
 def _rospy_up():

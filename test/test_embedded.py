@@ -1,0 +1,104 @@
+"""The embedded world (issue 18 item 2): ``run_scenario --embedded`` builds the launch file's
+world in its own process, becomes its /sim_world node and steps it by a function call.
+
+- it records exactly what the sim_world node's lockstep records, message by message with
+  times and bytes, for a scenario that changes everything a scenario can change;
+- apps see the same graph: the world's topics and services are served by /sim_world;
+- the examples get the same verdicts embedded and with the sim_world node;
+- what cannot be embedded gets one clear line and exit code 2, no hang.
+"""
+import os
+import re
+
+import pytest
+
+from fixtures.scenario_cli import run_scenario
+from test_scenarios import EX, bag_messages, verdicts
+from test_warm_farm import MESSY
+
+pytestmark = pytest.mark.rostest
+
+GRAPH_APP = """\
+import time, rosgraph, rospy
+from std_msgs.msg import String
+rospy.init_node('graph_app')
+pub = rospy.Publisher('~graph', String, queue_size=1, latch=True)
+imu = []
+while not imu and not rospy.is_shutdown():     # the phone is spawned after the apps start
+    pubs, _subs, srvs = rosgraph.Master('/graph_app').getSystemState()
+    imu = sorted(n for t, ns in pubs if t == '/mobile_device/imu_sensor_data' for n in ns)
+    time.sleep(0.01)
+step = sorted(n for s, ns in srvs if s == '/gazebo/step_world' for n in ns)
+pub.publish(String(' '.join(imu) + ' | ' + ' '.join(step)))
+rospy.spin()
+"""
+
+
+def test_embedded_world_records_what_the_world_node_records(tmp_path):
+    messy = tmp_path / 'messy.yaml'
+    messy.write_text(MESSY % {'ex': EX})
+    rc_e, emb = run_scenario(messy, '--embedded', '--record', tmp_path / 'emb.bag')
+    rc_c, cold = run_scenario(messy, '--record', tmp_path / 'cold.bag')
+    assert rc_e == rc_c == 0, emb + cold
+    assert verdicts(emb) == verdicts(cold) == {'imu': 'PASS'}
+    assert re.search(r'^handshake: \d+ messages from the world, 0 dropped', emb, re.M), emb
+    e, c = bag_messages(tmp_path / 'emb.bag'), bag_messages(tmp_path / 'cold.bag')
+    assert '/mobile_device/imu_sensor_data' in c and '/gazebo/environment' in c
+    assert sorted(e) == sorted(c)
+    for topic in c:           # the meta too: same scenario, seed, inputs and types
+        assert len(e[topic]) == len(c[topic]), topic
+        for i, (x, y) in enumerate(zip(e[topic], c[topic])):
+            assert x == y, '%s message %d (time, bytes) differs embedded and not' % (topic, i)
+
+
+def test_apps_see_the_world_node_of_the_launch_file(tmp_path):
+    (tmp_path / 'graph_app.py').write_text(GRAPH_APP)
+    (tmp_path / 'graph.yaml').write_text(
+        'name: graph\nduration: 0.3\nworld: {args: {camera_rate: 1}}\n'
+        'apps: [{name: graph_app, script: graph_app.py}]\n'
+        'expect:\n  - {name: served_by_sim_world, topic: /graph_app/graph, field: data,\n'
+        '     eventually: {equals: "/sim_world | /sim_world"}}\n')
+    rc, out = run_scenario(tmp_path / 'graph.yaml', '--embedded')
+    assert rc == 0, out
+    assert verdicts(out) == {'served_by_sim_world': 'PASS'}, out
+    assert 'spawned model' not in out          # the world's log lines go to its log file
+
+
+def test_examples_get_the_same_verdicts_embedded(tmp_path):
+    files = [os.path.join(EX, f) for f in ('compass_fails.yaml', 'qr_code.yaml',
+                                           'battery_saver.yaml', 'nfc_vcard.yaml')]
+    rc_c, cold = run_scenario('--jobs', '2', '--cold', *files, timeout=900)
+    assert rc_c == 1, cold                          # compass_fails fails
+    for f in files:
+        rc, out = run_scenario(f, '--embedded')
+        assert rc == (1 if 'fails' in f else 0), out
+        c = verdicts(cold, '[%s] ' % os.path.basename(f))
+        assert c and verdicts(out) == c, (f, out, cold)
+
+
+def test_what_cannot_be_embedded_is_refused_with_one_line(tmp_path):
+    f = os.path.join(EX, 'compass.yaml')
+    rc, out = run_scenario('--embedded', '--jobs', '2', f)
+    assert rc == 2 and 'ERROR --embedded runs one scenario' in out, out
+    # a launch file without a sim_world node
+    (tmp_path / 'noworld.launch').write_text(
+        '<launch><arg name="paused" default="true"/><arg name="seed" default=""/>'
+        '<arg name="real_time_factor" default="0"/><arg name="physics" default="ode"/>'
+        '</launch>')
+    (tmp_path / 'noworld.yaml').write_text(
+        'name: noworld\nduration: 0.5\nworld: {launch: noworld.launch}\n')
+    rc, out = run_scenario(tmp_path / 'noworld.yaml', '--embedded', timeout=120)
+    assert rc == 2, out
+    assert 'has 0 mobile_device_sim/sim_world nodes' in out, out
+    # a world node whose world file does not exist: the world's own error, as a run's ERROR
+    (tmp_path / 'badworld.launch').write_text(
+        '<launch><arg name="paused" default="true"/><arg name="seed" default=""/>'
+        '<arg name="real_time_factor" default="0"/><arg name="physics" default="ode"/>'
+        '<node name="sim_world" pkg="mobile_device_sim" type="sim_world">'
+        '<param name="world_file" value="%s/none.world"/></node></launch>' % tmp_path)
+    (tmp_path / 'badworld.yaml').write_text(
+        'name: badworld\nduration: 0.5\nworld: {launch: badworld.launch}\n')
+    rc, out = run_scenario(tmp_path / 'badworld.yaml', '--embedded', timeout=120)
+    assert rc == 2, out
+    assert re.search(r'the embedded world /sim_world: cannot load world file \S*none\.world',
+                     out), out

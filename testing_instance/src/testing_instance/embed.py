@@ -1,0 +1,165 @@
+"""run_scenario's embedded world: the World in the runner's own process, as gz-sim's
+TestFixture owns its server.
+
+    rosrun mobile_device_sim run_scenario FILE --embedded
+
+The scenario's launch file is read with roslaunch's own loader (arguments, includes,
+``$(find)``, xacro commands: everything roslaunch would do). Its parameters go to a fresh
+roscore, its nodes start as processes of the run (spawners, helpers), but for the one
+``mobile_device_sim/sim_world`` node: the runner itself becomes that node (one rospy process
+is one node: the same name, namespace, remappings and private parameters), builds the same
+WorldHost the sim_world executable builds, and steps it by a function call. Every topic and
+service is still served over ROS, so apps, rostopic, rosbag and rviz see the same graph as
+with the sim_world node; only the runner's own subscriptions take the world's messages as
+objects (sim_world.fastpub's local delivery, counted for the slice handshake like a remote
+connection), and its service calls to the world are function calls (:class:`LocalService`).
+"""
+import logging
+import os
+
+from . import procs
+from .procs import Proc
+from .results import RunError
+
+__all__ = ['LaunchPlan', 'LocalService', 'plan_launch', 'WORLD_NODE']
+
+WORLD_NODE = ('mobile_device_sim', 'sim_world')     # (package, type) of the world node
+
+
+class LaunchPlan(object):
+    """What a launch file asks for, split for an embedded world: ``world`` (roslaunch's
+    Node of the sim_world node), ``params`` [(key, value)] in roslaunch's order,
+    ``clear_params``, ``nodes`` (the other roslaunch Nodes)."""
+
+    def __init__(self, world, params, clear_params, nodes):
+        self.world, self.params, self.clear_params, self.nodes = \
+            world, params, clear_params, nodes
+
+    @property
+    def world_name(self):
+        ns = (self.world.namespace or '/').rstrip('/')
+        return '%s/%s' % (ns, self.world.name)
+
+    def world_argv(self):
+        """The argv the world node would get (its args, remappings, namespace) for
+        rospy.init_node and sim_world.node.host_from_params."""
+        argv = ['sim_world'] + (self.world.args.split() if self.world.args else [])
+        argv += ['%s:=%s' % kv for kv in self.world.remap_args]
+        ns = self.world.namespace or '/'
+        if ns.strip('/'):
+            argv.append('__ns:=%s' % ns)
+        return argv
+
+    def set_params(self, master):
+        """Clear and set the launch file's parameters as roslaunch does."""
+        for key in self.clear_params:
+            try:
+                if master.hasParam(key):
+                    master.deleteParam(key)
+            except Exception:  # noqa: BLE001 - nothing to clear
+                pass
+        for key, value in self.params:
+            master.setParam(key, value)
+
+    def start_nodes(self, env, log_dir):
+        """Start the launch file's other nodes; returns their Procs (logs in log_dir)."""
+        from roslaunch.node_args import create_local_process_args
+        out = []
+        for node in self.nodes:
+            try:
+                cmd = create_local_process_args(node, node.machine)
+            except Exception as e:  # noqa: BLE001 - roslaunch's NodeParamsException and co.
+                raise RunError('world.launch: node %s (%s/%s) cannot start: %s'
+                               % (node.name, node.package, node.type, e))
+            e = dict(env)
+            e.update((k, v) for k, v in node.env_args)
+            if (node.namespace or '/').strip('/'):
+                e['ROS_NAMESPACE'] = node.namespace
+            name = node.name.replace('/', '_')
+            out.append(Proc(cmd, e, os.path.join(log_dir, '%s.log' % name)))
+        return out
+
+
+def plan_launch(path, args, port):
+    """Load launch file ``path`` with ``args`` ('name:=value') for a master on ``port``
+    and split it (LaunchPlan); RunError says what is wrong."""
+    import roslaunch.config
+    import roslaunch.core
+    try:
+        config = roslaunch.config.load_config_default([(path, list(args))], port)
+    except (roslaunch.core.RLException, OSError, ValueError) as e:
+        raise RunError('world.launch %s cannot be read: %s' % (path, e))
+    worlds = [n for n in config.nodes if (n.package, n.type) == WORLD_NODE]
+    if len(worlds) != 1:
+        raise RunError('--embedded: the launch file %s has %d %s/%s nodes (one is needed; '
+                       'run without --embedded)' % (path, len(worlds), WORLD_NODE[0],
+                                                    WORLD_NODE[1]))
+    params = [(p.key, p.value) for p in config.params.values()]
+    nodes = [n for n in config.nodes if n is not worlds[0]]
+    return LaunchPlan(worlds[0], params, list(config.clear_params), nodes)
+
+
+class LocalService(object):
+    """A service of this very process, called as a function: a ServiceProxy's interface
+    (positional or keyword fields, or a request; ``close``) without the master lookup,
+    the serialization and the socket. A handler's exception becomes rospy's
+    ServiceException, as a remote caller would see it."""
+
+    def __init__(self, impl):
+        self.impl = impl
+        self.resolved_name = impl.resolved_name
+
+    def __call__(self, *args, **kwds):
+        import rospy
+        from rospy.impl.tcpros_service import convert_return_to_response
+        from rospy.msg import args_kwds_to_message
+        impl = self.impl
+        req = args_kwds_to_message(impl.request_class, args, kwds)
+        try:
+            res = impl.handler(req)
+            return convert_return_to_response(res, impl.response_class)
+        except rospy.ServiceException:
+            raise
+        except Exception as e:  # noqa: BLE001 - as rospy reports a handler's error
+            raise rospy.ServiceException('service [%s] responded with an error: %s'
+                                         % (self.resolved_name, e))
+
+    call = __call__
+
+    def close(self):
+        pass
+
+
+def local_service(name):
+    """LocalService of the service ``name`` this process serves, or None."""
+    import rospy
+    from rospy.impl.registration import get_service_manager
+    impl = get_service_manager().get_service(rospy.resolve_name(name))
+    return LocalService(impl) if impl is not None else None
+
+
+class LogFile(object):
+    """The embedded world's log lines (rospy's 'rosout' logger) into a file of the run,
+    as the sim_world node's output goes to the world log: the error tails read it."""
+
+    def __init__(self, path):
+        self.path = path
+        self.handler = logging.FileHandler(path)
+        self.handler.setFormatter(logging.Formatter('[%(levelname)s] %(message)s'))
+        log = logging.getLogger('rosout')
+        # the world's lines go to the run's world log, not to the runner's own output
+        self.console = [h for h in log.handlers if type(h).__name__ == 'RosStreamHandler']
+        for h in self.console:
+            log.removeHandler(h)
+        log.addHandler(self.handler)
+
+    def close(self):
+        log = logging.getLogger('rosout')
+        log.removeHandler(self.handler)
+        for h in self.console:
+            log.addHandler(h)
+        self.handler.close()
+
+    def tail(self, n=25):
+        self.handler.flush()
+        return procs.tail(self.path, n)

@@ -1,6 +1,8 @@
 """The embedded world (issue 18 item 2): ``run_scenario --embedded`` builds the launch file's
 world in its own process, becomes its /sim_world node and steps it by a function call.
 
+- it is the default for a single run whose launch file has one sim_world node
+  (``--world-node``: that node as a process of its own, stepped through /gazebo/step_world);
 - it records exactly what the sim_world node's lockstep records, message by message with
   times and bytes, for a scenario that changes everything a scenario can change;
 - apps see the same graph: the world's topics and services are served by /sim_world;
@@ -38,7 +40,7 @@ def test_embedded_world_records_what_the_world_node_records(tmp_path):
     messy = tmp_path / 'messy.yaml'
     messy.write_text(MESSY % {'ex': EX})
     rc_e, emb = run_scenario(messy, '--embedded', '--record', tmp_path / 'emb.bag')
-    rc_c, cold = run_scenario(messy, '--record', tmp_path / 'cold.bag')
+    rc_c, cold = run_scenario(messy, '--world-node', '--record', tmp_path / 'cold.bag')
     assert rc_e == rc_c == 0, emb + cold
     assert verdicts(emb) == verdicts(cold) == {'imu': 'PASS'}
     assert re.search(r'^handshake: \d+ messages from the world, 0 dropped', emb, re.M), emb
@@ -67,10 +69,10 @@ def test_apps_see_the_world_node_of_the_launch_file(tmp_path):
 def test_examples_get_the_same_verdicts_embedded(tmp_path):
     files = [os.path.join(EX, f) for f in ('compass_fails.yaml', 'qr_code.yaml',
                                            'battery_saver.yaml', 'nfc_vcard.yaml')]
-    rc_c, cold = run_scenario('--jobs', '2', '--cold', *files, timeout=900)
+    rc_c, cold = run_scenario('--jobs', '2', *files, timeout=900)   # warm world nodes
     assert rc_c == 1, cold                          # compass_fails fails
     for f in files:
-        rc, out = run_scenario(f, '--embedded')
+        rc, out = run_scenario(f)                   # embedded: the default
         assert rc == (1 if 'fails' in f else 0), out
         c = verdicts(cold, '[%s] ' % os.path.basename(f))
         assert c and verdicts(out) == c, (f, out, cold)
@@ -89,7 +91,10 @@ def test_what_cannot_be_embedded_is_refused_with_one_line(tmp_path):
         'name: noworld\nduration: 0.5\nworld: {launch: noworld.launch}\n')
     rc, out = run_scenario(tmp_path / 'noworld.yaml', '--embedded', timeout=120)
     assert rc == 2, out
+    assert '--embedded: the launch file' in out, out
     assert 'has 0 mobile_device_sim/sim_world nodes' in out, out
+    rc, out = run_scenario(f, '--embedded', '--world-node')
+    assert rc == 2 and 'exclude each other' in out, out
     # a world node whose world file does not exist: the world's own error, as a run's ERROR
     (tmp_path / 'badworld.launch').write_text(
         '<launch><arg name="paused" default="true"/><arg name="seed" default=""/>'

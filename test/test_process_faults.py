@@ -43,7 +43,7 @@ def left_behind(marker):
     return procs.carrying(marker)
 
 
-def run_fault(tmp_path, mode, duration=4.0, at=1.0, report=False):
+def run_fault(tmp_path, mode, duration=4.0, at=1.0, report=False, extra=()):
     mark = tmp_path / 'fault_time'
     f = tmp_path / ('%s.yaml' % mode)
     f.write_text(SCENARIO % dict(mode=mode, duration=duration, at=at, mark=mark, app=APP))
@@ -56,6 +56,7 @@ def run_fault(tmp_path, mode, duration=4.0, at=1.0, report=False):
     args = [sys.executable, NODE, str(f), '--record', str(bag), '--junit', str(junit)]
     if report:
         args += ['--report', str(tmp_path / 'report')]
+    args += list(extra)
     p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                        timeout=400, env=env)
     t_end = time.time()
@@ -84,7 +85,8 @@ def error_line(out):
 
 
 def test_the_world_killed_mid_scenario(tmp_path):
-    rc, out, suite, _ = run_fault(tmp_path, 'kill_world')
+    # the sim_world node as a process of its own (embedded, the world is the runner)
+    rc, out, suite, _ = run_fault(tmp_path, 'kill_world', extra=['--world-node'])
     assert rc == 2, out
     assert re.search(r'^ERROR the world died at sim time 1\.\d+ s', out, re.M), out
     assert 'last lines of the world/app log' in out

@@ -32,9 +32,12 @@ def _parser(prog):
     p.add_argument('--attach', action='store_true',
                    help='use the running world at ROS_MASTER_URI (rostest)')
     p.add_argument('--embedded', action='store_true',
-                   help='run the world in this process (one scenario, no --attach, '
-                   '--replay, --jobs or --sweep): this node becomes the launch file\'s '
-                   'sim_world node and steps the World by a function call')
+                   help='run the world in this process, or fail (the default for one '
+                   'scenario whose launch file has one sim_world node): this node becomes '
+                   'that node and steps the World by a function call')
+    p.add_argument('--world-node', action='store_true', dest='world_node',
+                   help='run the launch file\'s sim_world node as a process of its own and '
+                   'step it through /gazebo/step_world (as --attach and farms do)')
     p.add_argument('--replay', metavar='BAG|MCAP', help='play a recording (rosbag or MCAP) '
                    'as the clock source, no world; the apps and expectations run again')
     p.add_argument('--jobs', type=int, default=0, metavar='N',
@@ -137,6 +140,9 @@ def main(argv=None, prog='run_scenario'):
     files = _expand(a.files)
     if a.check:
         return check(files, sets=a.set or (), max_runs=a.max_runs)
+    if a.embedded and a.world_node:
+        print('ERROR --embedded and --world-node exclude each other')
+        return EXIT_ERROR
     if a.embedded and (a.jobs or len(files) > 1 or a.attach or a.replay or a.sweep or
                        a.cluster):
         print('ERROR --embedded runs one scenario with a world of its own; it does not go '
@@ -156,7 +162,7 @@ def main(argv=None, prog='run_scenario'):
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
     res = _run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port,
-                   embedded=a.embedded)
+                   embedded=True if a.embedded else not a.world_node and 'auto')
     if res is None:
         return EXIT_ERROR
     _graph_gone[0] = not a.attach

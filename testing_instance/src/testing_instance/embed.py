@@ -31,6 +31,8 @@ class LaunchPlan(object):
     Node of the sim_world node), ``params`` [(key, value)] in roslaunch's order,
     ``clear_params``, ``nodes`` (the other roslaunch Nodes)."""
 
+    why = None
+
     def __init__(self, world, params, clear_params, nodes):
         self.world, self.params, self.clear_params, self.nodes = \
             world, params, clear_params, nodes
@@ -82,7 +84,8 @@ class LaunchPlan(object):
 
 def plan_launch(path, args, port):
     """Load launch file ``path`` with ``args`` ('name:=value') for a master on ``port``
-    and split it (LaunchPlan); RunError says what is wrong."""
+    and split it (LaunchPlan; its ``world`` None and ``why`` said when the file has not
+    exactly one world node); RunError says what is wrong with the file."""
     import roslaunch.config
     import roslaunch.core
     try:
@@ -90,11 +93,12 @@ def plan_launch(path, args, port):
     except (roslaunch.core.RLException, OSError, ValueError) as e:
         raise RunError('world.launch %s cannot be read: %s' % (path, e))
     worlds = [n for n in config.nodes if (n.package, n.type) == WORLD_NODE]
-    if len(worlds) != 1:
-        raise RunError('--embedded: the launch file %s has %d %s/%s nodes (one is needed; '
-                       'run without --embedded)' % (path, len(worlds), WORLD_NODE[0],
-                                                    WORLD_NODE[1]))
     params = [(p.key, p.value) for p in config.params.values()]
+    if len(worlds) != 1:
+        plan = LaunchPlan(None, params, list(config.clear_params), list(config.nodes))
+        plan.why = ('the launch file %s has %d %s/%s nodes (one can be embedded)'
+                    % (path, len(worlds), WORLD_NODE[0], WORLD_NODE[1]))
+        return plan
     nodes = [n for n in config.nodes if n is not worlds[0]]
     return LaunchPlan(worlds[0], params, list(config.clear_params), nodes)
 

@@ -73,10 +73,13 @@ class Runner(Actions):
         self.run_dir = run_dir or tempfile.mkdtemp(prefix='scenario_')
         self.port = port
         self.warm = warm if not (self.attach or replay) else None  # a WarmHost (warm.py)
-        # the World in this process (embed.py): this node becomes the world node
+        # the World in this process (embed.py): this node becomes the world node. 'auto':
+        # when the launch file has one sim_world node (else that node runs as a process)
         self.embedded = bool(embedded) and not (self.attach or replay or self.warm)
+        self.embed_required = embedded is True
         self.host = None           # embedded: the sim_world WorldHost
         self.world_logfile = None  # embedded: the world's log lines (embed.LogFile)
+        self.launch_procs = []     # embedded: the launch file's other nodes
         self.procs = []
         self.world_proc = None
         self.inbox = Inbox()
@@ -142,7 +145,12 @@ class Runner(Actions):
 
     def world_log(self):
         if self.world_logfile is not None:
-            return self.world_logfile.tail()
+            # the embedded world's lines, then the last ones of the launch file's other nodes
+            # (what roslaunch's output would have shown after them)
+            lines = self.world_logfile.tail()
+            for p in self.launch_procs:
+                lines += ['%s:' % os.path.basename(p.log_path)] + _tail(p.log_path, 8)
+            return lines
         if self.warm is not None:
             return self.warm.log_tail()
         if self.world_proc is not None:
@@ -406,6 +414,10 @@ class Runner(Actions):
             e = self.world_failed[0]
             raise RunError('the embedded world stopped at sim time %.3f s: %s: %s'
                            % (self._fault_t(), type(e).__name__, e), self.world_log())
+        if self.host is not None and self.rospy.is_shutdown():
+            raise RunError('the world node %s (embedded in this run) was shut down at sim '
+                           'time %.3f s (rosnode kill?)' % (self.launch_plan.world_name,
+                                                            self._fault_t()), self.world_log())
         if self.world_proc is not None and not self.world_proc.alive():
             raise RunError('the %s died at sim time %.3f s (exit code %s)'
                            % ('ROS master (roscore)' if self.embedded else 'world',
@@ -836,8 +848,8 @@ class Runner(Actions):
             # a farm's warm world: started over (or launched, for a new world) at sim time 0
             self.warm.prepare(self, deadline)
             self.world_proc = self.warm.launch
-        elif self.embedded:
-            self._start_embedded(deadline)
+        elif self.embedded and self._start_embedded(deadline):
+            pass
         elif not self.attach:
             for attempt in (1, 2):
                 if self.port is None or attempt == 2:
@@ -875,7 +887,8 @@ class Runner(Actions):
 
     def _start_embedded(self, deadline):
         """A master of its own, the launch file's parameters and other nodes; the world
-        itself is built by _init_ros in this process (embed.py)."""
+        itself is built by _init_ros in this process (embed.py). False: the launch file
+        cannot be embedded and --embedded was not asked for (the master is gone again)."""
         from .embed import plan_launch
         import rosgraph
         path, args = self.launch_args()
@@ -885,6 +898,13 @@ class Runner(Actions):
             self._start_roscore()
             if attempt == 1:   # roslaunch's loader (xacro) runs while the master starts
                 self.launch_plan = plan_launch(path, args, self.port)
+                if self.launch_plan.world is None:
+                    if self.embed_required:
+                        raise RunError('--embedded: %s' % self.launch_plan.why)
+                    procs.kill_tree(self.world_proc)
+                    self.procs.remove(self.world_proc)
+                    self.world_proc, self.embedded = None, False
+                    return False
             try:
                 self._wait_master(deadline)
                 break
@@ -895,8 +915,9 @@ class Runner(Actions):
         m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
         m.setParam('/use_sim_time', True)
         self.launch_plan.set_params(m)
-        for p in self.launch_plan.start_nodes(self._env(), self.run_dir):
-            self.procs.append(p)
+        self.launch_procs = self.launch_plan.start_nodes(self._env(), self.run_dir)
+        self.procs += self.launch_procs
+        return True
 
     def _run_live(self):
         self._start_world()

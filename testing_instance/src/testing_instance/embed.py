@@ -46,7 +46,7 @@ class LaunchPlan(object):
         """The argv the world node would get (its args, remappings, namespace) for
         rospy.init_node and sim_world.node.host_from_params."""
         argv = ['sim_world'] + (self.world.args.split() if self.world.args else [])
-        argv += ['%s:=%s' % kv for kv in self.world.remap_args]
+        argv += ['%s:=%s' % tuple(kv) for kv in self.world.remap_args]
         ns = self.world.namespace or '/'
         if ns.strip('/'):
             argv.append('__ns:=%s' % ns)

@@ -6,8 +6,22 @@ import time
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port', 'kill_tree',
-           'read_chars', 'rss_kb', 'socket_inodes', 'state', 'tail', 'tcp_queues', 'thread_states']
+__all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
+           'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
+           'tcp_queues', 'thread_states']
+
+
+def ros_env(log_dir, port=None):
+    """The environment of a run's processes: this one's, with the master on ``port`` of
+    localhost (None: keep ROS_MASTER_URI, an attached run), ROS_HOSTNAME defaulting to
+    localhost, the ROS logs in ``log_dir``, unbuffered Python output."""
+    env = dict(os.environ)
+    if port is not None:
+        env['ROS_MASTER_URI'] = 'http://localhost:%d' % port
+    env.setdefault('ROS_HOSTNAME', 'localhost')
+    env['ROS_LOG_DIR'] = log_dir
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
 
 
 def tail(path, n=25):

@@ -159,13 +159,8 @@ class Runner(Actions):
 
     # -- processes -------------------------------------------------------------------------
     def _env(self):
-        env = dict(os.environ)
-        if not self.attach:
-            env['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
-        env.setdefault('ROS_HOSTNAME', 'localhost')
-        env['ROS_LOG_DIR'] = os.path.join(self.run_dir, 'log')
-        env['PYTHONUNBUFFERED'] = '1'
-        return env
+        return procs.ros_env(os.path.join(self.run_dir, 'log'),
+                             None if self.attach else self.port)
 
     def launch_args(self):
         return launch_args(self.sc, self.seed, self.rtf, self.report_dir)
@@ -303,6 +298,7 @@ class Runner(Actions):
                            if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
         import rospy
         import rospy.core
+        self.rospy = rospy
         if self.embedded:
             # one rospy process is one node: the runner is the world node (embed.py)
             argv = self.launch_plan.world_argv()
@@ -310,7 +306,6 @@ class Runner(Actions):
             self._embed_world(argv)
         elif not rospy.core.is_initialized():    # a warm worker's runners share the node
             rospy.init_node('scenario_runner', disable_signals=True)
-        self.rospy = rospy
 
     def _embed_world(self, argv):
         """Build the launch file's world in this process and start its loop thread, as the
@@ -319,7 +314,8 @@ class Runner(Actions):
         from .embed import LogFile
         self.world_logfile = LogFile(os.path.join(self.run_dir, 'world.log'))
         try:
-            self.host = host_from_params(argv)
+            # the node's own argv: without its remappings, as rospy.myargv gives it
+            self.host = host_from_params(self.rospy.myargv(argv))
         except SetupError as e:
             raise RunError('the embedded world %s: %s' % (self.launch_plan.world_name, e),
                            self.world_log())
@@ -701,17 +697,17 @@ class Runner(Actions):
         self._stamp_held()
         self.sync_wall += time.monotonic() - w0
 
-    def _own_pending(self, q=None):
+    def _own_pending(self, q):
         """Why the runner (or the world) still holds app messages not yet delivered, or
         None: a subscription deserialised more than reached the inbox, or bytes wait on a
-        socket of this process or of the world node."""
+        socket of this process or of the world node (``q``: procs.tcp_queues(), the app
+        watch's snapshot)."""
         for topic, sub in list(self.subs.items()):
             impl = getattr(sub, 'impl', None)
             n = sum(getattr(c, 'stat_num_msg', 0) for c in list(getattr(impl, 'connections',
                                                                         ())))
             if n > self.inbox.counts.get(topic, 0):
                 return 'runner: %s' % topic
-        q = procs.tcp_queues() if q is None else q
         pids = [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
         for pid in pids:
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):

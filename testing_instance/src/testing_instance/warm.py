@@ -71,12 +71,7 @@ class WarmHost(object):
 
     # -- what a Runner asks --------------------------------------------------------------
     def env(self):
-        env = dict(os.environ)
-        env['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
-        env.setdefault('ROS_HOSTNAME', 'localhost')
-        env['ROS_LOG_DIR'] = os.path.join(self.dir, 'log')
-        env['PYTHONUNBUFFERED'] = '1'
-        return env
+        return procs.ros_env(os.path.join(self.dir, 'log'), self.port)
 
     def prepare(self, runner, deadline):
         """Make the world ``runner``'s scenario needs ready at sim time 0, paused."""

@@ -1,0 +1,93 @@
+"""testing_instance.embed without a roscore: a launch file split for an embedded world
+(roslaunch's own loader), the world node's argv, the world's services as function calls."""
+import os
+
+import pytest
+
+pytest.importorskip('roslaunch')
+
+from testing_instance import embed  # noqa: E402
+from testing_instance.results import RunError  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+OFFICE = os.path.join(ROOT, 'sim_world', 'launch', 'office.launch')
+
+
+def test_the_office_launch_splits_into_the_world_node_and_the_rest():
+    plan = embed.plan_launch(OFFICE, ['paused:=true', 'seed:=5', 'real_time_factor:=0',
+                                      'flycam:=false', 'camera_rate:=2'], 11311)
+    assert (plan.world.package, plan.world.type, plan.world.name) == \
+        ('mobile_device_sim', 'sim_world', 'sim_world')
+    assert plan.world_name == '/sim_world' and plan.why is None
+    params = dict(plan.params)
+    assert params['/sim_world/seed'] == '5' and params['/sim_world/paused'] is True
+    assert params['/sim_world/real_time_factor'] == 0
+    assert params['/sim_world/world_file'].endswith('office.world')
+    assert params['/use_sim_time'] is True
+    # xacro ran (roslaunch's command= parameter) with the launch arguments
+    assert '<robot' in params['/robot_description'] and 'update_rate' not in \
+        params['/robot_description'].split('<robot', 1)[0]
+    assert [n.name for n in plan.nodes] == ['spawn_phone']          # flycam:=false
+    assert plan.world_argv() == ['sim_world']
+
+
+def test_the_world_node_keeps_its_namespace_remappings_and_args(tmp_path):
+    f = tmp_path / 'ns.launch'
+    f.write_text('<launch><group ns="lab"><node name="w" pkg="mobile_device_sim" '
+                 'type="sim_world" args="%s/x.world"><remap from="/clock" to="/c2"/>'
+                 '</node></group></launch>' % tmp_path)
+    plan = embed.plan_launch(str(f), [], 11311)
+    assert plan.world_name == '/lab/w'
+    assert plan.world_argv() == ['sim_world', '%s/x.world' % tmp_path, '/clock:=/c2',
+                                 '__ns:=/lab/']
+    assert plan.nodes == []
+
+
+def test_a_launch_file_without_one_world_node_says_so(tmp_path):
+    f = tmp_path / 'two.launch'
+    f.write_text('<launch><node name="a" pkg="mobile_device_sim" type="sim_world"/>'
+                 '<node name="b" pkg="mobile_device_sim" type="sim_world"/></launch>')
+    plan = embed.plan_launch(str(f), [], 11311)
+    assert plan.world is None and 'has 2 mobile_device_sim/sim_world nodes' in plan.why
+    assert len(plan.nodes) == 2                  # run as they are (--world-node)
+    bad = tmp_path / 'bad.launch'
+    bad.write_text('<launch><node name="a"')
+    with pytest.raises(RunError, match='bad.launch cannot be read'):
+        embed.plan_launch(str(bad), [], 11311)
+    need = tmp_path / 'need.launch'
+    need.write_text('<launch><arg name="must"/><param name="x" value="$(arg must)"/></launch>')
+    with pytest.raises(RunError, match='need.launch cannot be read: .*must'):
+        embed.plan_launch(str(need), [], 11311)
+    assert dict(embed.plan_launch(str(need), ['must:=3'], 11311).params)['/x'] == 3
+
+
+class _Impl(object):
+    """What rospy's service manager holds for a service (ServiceImpl's fields used)."""
+
+    def __init__(self, handler):
+        from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse
+        self.handler = handler
+        self.resolved_name = '/probe'
+        self.service_class = SetBool
+        self.request_class = SetBoolRequest
+        self.response_class = SetBoolResponse
+
+
+def test_a_local_service_is_called_as_a_proxy_would_call_it():
+    import rospy
+    seen = []
+
+    def handler(req):
+        seen.append(req.data)
+        if req.data:
+            return True, 'on'                     # a tuple, as rospy handlers may answer
+        raise ValueError('refused')
+    svc = embed.LocalService(_Impl(handler))
+    res = svc(True)
+    assert (res.success, res.message) == (True, 'on')
+    assert svc(data=True).message == 'on'        # keyword fields
+    with pytest.raises(rospy.ServiceException, match=r'service \[/probe\] responded with an '
+                                                     r'error: refused'):
+        svc(False)
+    assert seen == [True, True, False]
+    svc.close()                                  # nothing to close

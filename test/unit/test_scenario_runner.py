@@ -68,3 +68,20 @@ def test_junit_holds_log_tails_with_colour_codes_and_control_characters(tmp_path
     write_junit(r, str(tmp_path / 'j.xml'))
     err = ET.parse(str(tmp_path / 'j.xml')).getroot().find('testcase/error')
     assert err.text.splitlines()[1:] == ['[spawn_phone-3] finished', 'bell']
+
+
+def test_a_farm_run_gets_the_options_that_apply_to_each_run(tmp_path):
+    from testing_instance.cli import _parser, farm_argv
+    a = _parser('run_scenario').parse_args([
+        'x.yaml', '--jobs', '2', '--seed', '3', '--set', 'heading=30', '--set', 'seed=4',
+        '--world-node', '--junit', str(tmp_path / 'j'), '--record', str(tmp_path / 'r')])
+    argv = farm_argv('dir/compass_sweep.yaml', a)
+    assert argv == ['dir/compass_sweep.yaml', '--seed', '3', '--set', 'heading=30',
+                    '--set', 'seed=4', '--world-node',
+                    '--junit', str(tmp_path / 'j' / 'compass_sweep.xml'),
+                    '--record', str(tmp_path / 'r' / 'compass_sweep.bag')]
+    assert (tmp_path / 'j').is_dir() and (tmp_path / 'r').is_dir()
+    # what a run does with it: the same parsed options as a single run's
+    b = _parser('run_scenario').parse_args(argv)
+    assert b.set == ['heading=30', 'seed=4'] and b.world_node and b.seed == 3
+    assert farm_argv('y.yaml', _parser('run_scenario').parse_args(['y.yaml'])) == ['y.yaml']

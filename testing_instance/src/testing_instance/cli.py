@@ -241,28 +241,37 @@ def replay_main(argv=None):
     return EXIT_ERROR
 
 
+def farm_argv(f, a):
+    """The run_scenario command line (without the program) of file ``f`` in a farm run
+    with the parsed arguments ``a``: the options that apply to each run, the output
+    folders' per-file paths (created)."""
+    argv = [f]
+    if a.seed is not None:
+        argv += ['--seed', str(a.seed)]
+    if a.rtf is not None:
+        argv += ['--real-time-factor', str(a.rtf)]
+    for s in a.set or ():               # every file must declare the parameter
+        argv += ['--set', s]
+    if a.world_node:                    # (a warm worker's world is a node anyway)
+        argv.append('--world-node')
+    name = os.path.splitext(os.path.basename(f))[0]
+    if a.junit:
+        os.makedirs(a.junit, exist_ok=True)
+        argv += ['--junit', os.path.join(a.junit, name + '.xml')]
+    if a.report:
+        argv += ['--report', os.path.join(a.report, name)]
+    if a.record:                        # a folder: <name>.bag
+        os.makedirs(a.record[0], exist_ok=True)
+        argv += ['--record', os.path.join(a.record[0], name + '.bag')]
+    return argv
+
+
 def farm(files, jobs, a, out=print):
     """Run every file ``jobs`` at a time (testing_instance.warm.Pool: warm worlds, or with
     --cold a run_scenario process and master per file); print a summary table. Exit: the
     worst of the runs."""
     from .warm import Pool
-    items = []
-    for f in files:
-        argv = [f]
-        if a.seed is not None:
-            argv += ['--seed', str(a.seed)]
-        if a.rtf is not None:
-            argv += ['--real-time-factor', str(a.rtf)]
-        name = os.path.splitext(os.path.basename(f))[0]
-        if a.junit:
-            os.makedirs(a.junit, exist_ok=True)
-            argv += ['--junit', os.path.join(a.junit, name + '.xml')]
-        if a.report:
-            argv += ['--report', os.path.join(a.report, name)]
-        if a.record:                    # a folder: <name>.bag
-            os.makedirs(a.record[0], exist_ok=True)
-            argv += ['--record', os.path.join(a.record[0], name + '.bag')]
-        items.append((f, argv))
+    items = [(f, farm_argv(f, a)) for f in files]
     results = []
     wall0 = time.monotonic()
 

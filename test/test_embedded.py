@@ -107,3 +107,23 @@ def test_what_cannot_be_embedded_is_refused_with_one_line(tmp_path):
     assert rc == 2, out
     assert re.search(r'the embedded world /sim_world: cannot load world file \S*none\.world',
                      out), out
+
+
+def test_a_bad_world_parameter_is_one_line_and_no_wait(tmp_path):
+    """~max_step_size that is not a number: embedded, the world's own line as the run's
+    ERROR; with the sim_world node, that node's FATAL line in the log tail at once (the
+    runner used to wait its whole timeout for /gazebo/step_world of a world already gone)."""
+    import time
+    f = tmp_path / 'badstep.yaml'
+    f.write_text('name: badstep\nduration: 0.5\ntimeout: 200\n'
+                 'world: {args: {camera_rate: 1, max_step_size: abc}}\n')
+    rc, out = run_scenario(f, timeout=120)
+    assert rc == 2, out
+    assert "ERROR the embedded world /sim_world: ~max_step_size must be a number, got 'abc'" \
+        in out, out
+    t0 = time.monotonic()
+    rc, out = run_scenario(f, '--world-node', timeout=120)
+    assert rc == 2, out
+    assert time.monotonic() - t0 < 60, out
+    assert re.search(r'^ERROR the world died at sim time 0\.000 s', out, re.M), out
+    assert "sim_world: ~max_step_size must be a number, got 'abc'" in out, out

@@ -37,9 +37,10 @@ def free_port(start=None, host='127.0.0.1'):
     raise RuntimeError('no free port in %d..%d' % (start, start + 199))
 
 
-def wait_for_service(name, timeout=None, poll=0.02, caller='/wait_for_service'):
+def wait_for_service(name, timeout=None, poll=0.02, caller='/wait_for_service', give_up=None):
     """True once the master knows the service ``name`` (a global name), False after
-    ``timeout`` s (None: no limit) or when rospy shuts down."""
+    ``timeout`` s (None: no limit), when rospy shuts down or when ``give_up()`` is true
+    (the process that would offer it has died)."""
     import rosgraph
     try:
         from rospy.core import is_shutdown
@@ -54,6 +55,7 @@ def wait_for_service(name, timeout=None, poll=0.02, caller='/wait_for_service'):
             return True
         except (rosgraph.MasterException, OSError):
             pass
-        if is_shutdown() or (deadline is not None and time.monotonic() >= deadline):
+        if is_shutdown() or (deadline is not None and time.monotonic() >= deadline) or \
+                (give_up is not None and give_up()):
             return False
         time.sleep(poll)

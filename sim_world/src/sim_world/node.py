@@ -14,6 +14,7 @@ already set. Besides the Gazebo API (sim_world.gazebo_api) it serves /gazebo/set
 /gazebo/environment and /gazebo/set_sensor_fault (sim_world.world_services).
 """
 import gc
+import math
 import os
 import sys
 import threading
@@ -35,6 +36,17 @@ DEFAULT_WORLD = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__
 
 class SetupError(Exception):
     """The node's parameters or world file are wrong: the one line to log (FATAL)."""
+
+
+def _number(name, default):
+    """Private parameter ``name`` as a float (SetupError: not a number)."""
+    v = rospy.get_param(name, default)
+    try:
+        if isinstance(v, bool):
+            raise ValueError
+        return float(v)
+    except (TypeError, ValueError):
+        raise SetupError('%s must be a number, got %r' % (name, v))
 
 
 def main(argv=None):
@@ -70,13 +82,14 @@ def host_from_params(argv=()):
         desc = load_world_file(world_file)
     except ModelError as e:
         raise SetupError('cannot load world file %s: %s' % (world_file, e))
-    step = float(rospy.get_param('~max_step_size', desc.max_step_size or 0.001))
-    rtf = rospy.get_param('~real_time_factor', None)
-    if rtf is None:
-        rtf = desc.real_time_factor if desc.real_time_factor is not None else 1.0
-    rtf = float(rtf)
-    if rtf < 0:
+    step = _number('~max_step_size', desc.max_step_size or 0.001)
+    if not (step > 0 and math.isfinite(step)):
+        raise SetupError('~max_step_size must be a number > 0 (s), got %r' % step)
+    rtf = _number('~real_time_factor',
+                  desc.real_time_factor if desc.real_time_factor is not None else 1.0)
+    if not rtf >= 0:
         raise SetupError('~real_time_factor must be >= 0, got %g' % rtf)
+    rate = _number('~pub_clock_frequency', 100.0)
     seed = rospy.get_param('~seed', None)
     if seed is not None and seed != '':
         try:
@@ -90,7 +103,7 @@ def host_from_params(argv=()):
     try:
         host = WorldHost(world_file, engine, step, desc.gravity, rtf, seed,
                          paused=bool(rospy.get_param('~paused', False)),
-                         publish_rate=float(rospy.get_param('~pub_clock_frequency', 100.0)))
+                         publish_rate=rate)
     except ValueError as e:
         raise SetupError(str(e))
     except ModelError as e:

@@ -319,6 +319,11 @@ class Runner(Actions):
         except SetupError as e:
             raise RunError('the embedded world %s: %s' % (self.launch_plan.world_name, e),
                            self.world_log())
+        except Exception as e:  # noqa: BLE001 - a plugin's failure while loading: the run's
+            import traceback    # ERROR (the sim_world node would have died with it)
+            raise RunError('the embedded world %s could not be built: %s: %s'
+                           % (self.launch_plan.world_name, type(e).__name__, e),
+                           self.world_log() + traceback.format_exc().splitlines()[-12:])
         # the world's messages reach _cb in the world's own thread (no delivery thread woken
         # per message, no GIL hand-off): the runner waits for the step anyway
         from sim_world import fastpub
@@ -348,7 +353,7 @@ class Runner(Actions):
         self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
         self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
         if not wait_for_service('/gazebo/step_world', timeout=self.sc.timeout,
-                                caller=rospy.get_name()):
+                                caller=rospy.get_name(), give_up=self._world_gone):
             self._check_world()
             raise RunError('the world did not offer /gazebo/step_world within %g s'
                            % self.sc.timeout, self.world_log())
@@ -359,6 +364,10 @@ class Runner(Actions):
                                     if name == '/gazebo/step_world' and ns), None)
         except Exception:  # noqa: BLE001 - counted topics then fall back to a quiet period
             self.world_node = None
+
+    def _world_gone(self):
+        """The world's process (roslaunch of a cold run, a warm world's) has exited."""
+        return self.world_proc is not None and not self.world_proc.alive()
 
     def proxy(self, name, typ):
         """A persistent proxy of the world's service ``name``: one connection for the run

@@ -856,24 +856,7 @@ class Runner(Actions):
         elif self.embedded and self._start_embedded(deadline):
             pass
         elif not self.attach:
-            for attempt in (1, 2):
-                if self.port is None or attempt == 2:
-                    self.port = free_port()
-                self._launch_world()
-                try:
-                    self._wait_master(deadline)
-                    break
-                except RunError:
-                    # the free port was taken by another process between the check and the
-                    # master's bind (parallel jobs): once more on a new port
-                    if attempt == 2 or time.monotonic() >= deadline:
-                        raise
-                    self.world_proc.stop(grace=2.0)
-            # rospy reads /use_sim_time at init_node: set it before (the launch file sets
-            # it too, maybe later); else this node would time messages by the wall clock
-            import rosgraph
-            m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
-            m.setParam('/use_sim_time', True)
+            m = self._start_master(self._launch_world, deadline)
             # roslaunch sets the launch file's parameters before it starts rosout: once
             # rosout is there, the apps can start (and read them) while the world loads
             while time.monotonic() < deadline and self.world_proc.alive():
@@ -890,35 +873,48 @@ class Runner(Actions):
         self._wait_phones(deadline)
         self._find_watched()
 
-    def _start_embedded(self, deadline):
-        """A master of its own, the launch file's parameters and other nodes; the world
-        itself is built by _init_ros in this process (embed.py). False: the launch file
-        cannot be embedded and --embedded was not asked for (the master is gone again)."""
-        from .embed import plan_launch
+    def _start_master(self, start, deadline, meanwhile=None):
+        """``start()`` (roslaunch or roscore: self.world_proc) on a free port until its
+        master answers; ``meanwhile()`` runs once while the first one starts. The master,
+        with /use_sim_time set: rospy reads it at init_node (the launch file sets it too,
+        maybe later), else this node would time messages by the wall clock."""
         import rosgraph
-        path, args = self.launch_args()
         for attempt in (1, 2):
             if self.port is None or attempt == 2:
                 self.port = free_port()
-            self._start_roscore()
-            if attempt == 1:   # roslaunch's loader (xacro) runs while the master starts
-                self.launch_plan = plan_launch(path, args, self.port)
-                if self.launch_plan.world is None:
-                    if self.embed_required:
-                        raise RunError('--embedded: %s' % self.launch_plan.why)
-                    procs.kill_tree(self.world_proc)
-                    self.procs.remove(self.world_proc)
-                    self.world_proc, self.embedded = None, False
-                    return False
+            start()
+            if attempt == 1 and meanwhile is not None:
+                meanwhile()
             try:
                 self._wait_master(deadline)
                 break
             except RunError:
+                # the free port was taken by another process between the check and the
+                # master's bind (parallel jobs): once more on a new port
                 if attempt == 2 or time.monotonic() >= deadline:
                     raise
                 self.world_proc.stop(grace=2.0)
         m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
         m.setParam('/use_sim_time', True)
+        return m
+
+    def _start_embedded(self, deadline):
+        """A master of its own, the launch file's parameters and other nodes; the world
+        itself is built by _init_ros in this process (embed.py). False: the launch file
+        cannot be embedded and --embedded was not asked for (the master is gone again)."""
+        from .embed import plan_launch
+        path, args = self.launch_args()
+
+        def plan():          # roslaunch's loader (xacro) runs while the master starts
+            self.launch_plan = plan_launch(path, args, self.port)
+        m = self._start_master(self._start_roscore, deadline, meanwhile=plan)
+        if self.launch_plan.world is None:
+            if self.embed_required:
+                raise RunError('--embedded: %s' % self.launch_plan.why)
+            procs.kill_tree(self.world_proc)
+            self.procs.remove(self.world_proc)
+            self.world_proc, self.embedded = None, False
+            return False
         self.launch_plan.set_params(m)
         self.launch_procs = self.launch_plan.start_nodes(self._env(), self.run_dir)
         self.procs += self.launch_procs

@@ -73,12 +73,12 @@ class LaunchPlan(object):
             except Exception as e:  # noqa: BLE001 - roslaunch's NodeParamsException and co.
                 raise RunError('world.launch: node %s (%s/%s) cannot start: %s'
                                % (node.name, node.package, node.type, e))
-            e = dict(env)
-            e.update((k, v) for k, v in node.env_args)
+            node_env = dict(env)
+            node_env.update((k, v) for k, v in node.env_args)
             if (node.namespace or '/').strip('/'):
-                e['ROS_NAMESPACE'] = node.namespace
+                node_env['ROS_NAMESPACE'] = node.namespace
             name = node.name.replace('/', '_')
-            out.append(Proc(cmd, e, os.path.join(log_dir, '%s.log' % name)))
+            out.append(Proc(cmd, node_env, os.path.join(log_dir, '%s.log' % name)))
         return out
 
 
@@ -152,16 +152,14 @@ class LogFile(object):
         self.handler.setFormatter(logging.Formatter('[%(levelname)s] %(message)s'))
         log = logging.getLogger('rosout')
         # the world's lines go to the run's world log, not to the runner's own output
-        self.console = [h for h in log.handlers if type(h).__name__ == 'RosStreamHandler']
-        for h in self.console:
+        # (to the end of the process: the world outlives the run by its teardown)
+        for h in [h for h in log.handlers if type(h).__name__ == 'RosStreamHandler']:
             log.removeHandler(h)
         log.addHandler(self.handler)
 
     def close(self):
-        log = logging.getLogger('rosout')
-        log.removeHandler(self.handler)
-        for h in self.console:
-            log.addHandler(h)
+        """The run is over: the file is complete (it stays for the log tails)."""
+        logging.getLogger('rosout').removeHandler(self.handler)
         self.handler.close()
 
     def tail(self, n=25):

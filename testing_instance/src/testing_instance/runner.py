@@ -619,7 +619,7 @@ class Runner(Actions):
         hdr = getattr(msg, '_connection_header', None)
         # a message handed over in this process (an embedded world's) has no header
         caller = hdr.get('callerid') if hdr else (self.world_node if self.embedded else None)
-        if self.embedded and hdr and any(topic == tp for tp, _typ in self.pubs):
+        if self.embedded and hdr and topic in self._own_topics():
             caller = None   # this node's own action publisher, not the world it also is
         world = caller == self.world_node
         if t is None and self.hold_unstamped:
@@ -635,6 +635,10 @@ class Runner(Actions):
         self.inbox.put(t, topic, msg, from_world=world)
         if self.bag is not None:
             self._bag_write(topic, msg, t)
+
+    def _own_topics(self):
+        """The topics this runner's actions publish on (Actions._publisher)."""
+        return {topic for topic, _typ in self.pubs}
 
     def _stamp_held(self):
         for t, topic, msg in self.inbox.stamp_held(self._time_held):
@@ -1020,7 +1024,7 @@ class Runner(Actions):
         import rosgraph
         from std_msgs.msg import String
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
-        own = {topic for topic, _typ in self.pubs}    # an embedded world's node is ours too
+        own = self._own_topics()         # an embedded world's node is ours too
         inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes
                         and t not in own)
         if '/gazebo/environment' not in inputs:
@@ -1068,7 +1072,7 @@ class Runner(Actions):
             if self.world_proc is not None:
                 procs.kill_tree(self.world_proc)
             if self.world_logfile is not None:
-                self.world_logfile.handler.flush()
+                self.world_logfile.close()    # its file stays for the log tails
         else:
             procs.stop_run([p for p in self.procs if p is not self.world_proc],
                            self.world_proc, self.watch.get('the world node /sim_world'))

@@ -71,7 +71,8 @@ def test_junit_holds_log_tails_with_colour_codes_and_control_characters(tmp_path
 
 
 def test_a_farm_run_gets_the_options_that_apply_to_each_run(tmp_path):
-    from testing_instance.cli import _parser, farm_argv
+    from testing_instance.cli import farm_argv
+    from testing_instance.command import parser as _parser
     a = _parser('run_scenario').parse_args([
         'x.yaml', '--jobs', '2', '--seed', '3', '--set', 'heading=30', '--set', 'seed=4',
         '--world-node', '--junit', str(tmp_path / 'j'), '--record', str(tmp_path / 'r')])

@@ -1,92 +1,12 @@
 """Command line of run_scenario / replay_scenario (see the README of testing_instance)."""
-import argparse
-import glob
 import os
 import sys
 import time
 
-from .runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, run_file
-from .yamlsrc import ScenarioError
+from .command import expand, parser, run_one
+from .runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS
 
 __all__ = ['main', 'replay_main', 'farm']
-
-
-def _parser(prog):
-    p = argparse.ArgumentParser(
-        prog=prog, description='Run scenario files (YAML) against the simulated phone in '
-        'sim time and print a verdict per expectation. Exit 0: all passed, 1: a failure, '
-        '2: an error (the scenario could not run).')
-    p.add_argument('files', nargs='+', metavar='FILE|DIR',
-                   help='scenario file(s); with --jobs also folders of *.yaml')
-    p.add_argument('--seed', type=int, help='override the scenario\'s seed')
-    p.add_argument('--record', metavar='BAG|MCAP', action='append',
-                   help='write a recording of the run: .mcap = MCAP (ROS 1 encoding), else a '
-                   'rosbag; may be given twice (both from the same messages); with --jobs: a '
-                   'folder')
-    p.add_argument('--junit', metavar='XML', help='write JUnit XML (with --jobs: a folder)')
-    p.add_argument('--report', metavar='DIR', help='write an HTML report of the run to '
-                   'DIR/index.html (opens offline; with --jobs, --sweep or --cluster: '
-                   'DIR/<run>/ per run and an index page DIR/index.html)')
-    p.add_argument('--real-time-factor', type=float, dest='rtf', metavar='R',
-                   help='0 = as fast as possible (override the scenario\'s)')
-    p.add_argument('--attach', action='store_true',
-                   help='use the running world at ROS_MASTER_URI (rostest)')
-    p.add_argument('--embedded', action='store_true',
-                   help='run the world in this process, or fail (the default for one '
-                   'scenario whose launch file has one sim_world node): this node becomes '
-                   'that node and steps the World by a function call')
-    p.add_argument('--world-node', action='store_true', dest='world_node',
-                   help='run the launch file\'s sim_world node as a process of its own and '
-                   'step it through /gazebo/step_world (as --attach and farms do)')
-    p.add_argument('--replay', metavar='BAG|MCAP', help='play a recording (rosbag or MCAP) '
-                   'as the clock source, no world; the apps and expectations run again')
-    p.add_argument('--jobs', type=int, default=0, metavar='N',
-                   help='run the scenarios N at a time: N workers, each with its own master '
-                   'and a warm world that serves scenario after scenario on the same world '
-                   '(reset between them with /gazebo/reload_world)')
-    p.add_argument('--cold', action='store_true', help='with --jobs or --sweep: a fresh '
-                   'master and world for every scenario instead of warm worlds')
-    p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
-                   '(0-based; a CI matrix or several machines)')
-    # sweeps and the Ray farm (testing_instance.sweep / .cluster, issue 21)
-    p.add_argument('--sweep', action='store_true', help='run every concrete run of the '
-                   'files\' sweep: blocks (a pass-rate summary, a command per failure)')
-    p.add_argument('--set', action='append', metavar='NAME=VALUE', help='set a parameter '
-                   '(repeatable); with --sweep it pins that parameter')
-    p.add_argument('--max-runs', type=int, dest='max_runs', metavar='N',
-                   help='refuse sweeps larger than N runs (default 10000)')
-    p.add_argument('--out', metavar='DIR', help='sweep: summary.txt, summary.json, '
-                   'sweep.xml and each run\'s report in logs/')
-    p.add_argument('--json', metavar='FILE', help='sweep: the summary as JSON')
-    p.add_argument('--cluster', metavar='ADDRESS', help='run on a Ray cluster (host:port, '
-                   'ray://host:port, or auto = $RAY_ADDRESS / the local cluster)')
-    p.add_argument('--cpus-per-run', type=float, default=1.0, dest='cpus_per_run',
-                   metavar='C', help='--cluster: CPUs each run reserves (default 1)')
-    p.add_argument('--check', action='store_true', help='validate the files (and every '
-                   'concrete run of their sweeps) without starting anything: exit 0 valid, '
-                   '2 invalid with FILE:LINE messages')
-    p.add_argument('--port', type=int, metavar='P', help='master port of this run (default: a '
-                   'free one; another is taken when P is busy)')
-    p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
-    p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
-    return p
-
-
-def _record_arg(record):
-    """--record given once: its path; twice or more: the list (one writer each)."""
-    if not record:
-        return None
-    return record[0] if len(record) == 1 else list(record)
-
-
-def _expand(items):
-    files = []
-    for it in items:
-        if os.path.isdir(it):
-            files += sorted(glob.glob(os.path.join(it, '*.yaml')))
-        else:
-            files.append(it)
-    return files
 
 
 def check(files, sets=(), max_runs=None, out=print):
@@ -134,10 +54,10 @@ def main(argv=None, prog='run_scenario'):
         from .warm import worker_main
         _graph_gone[0] = True
         return worker_main()
-    a = _parser(prog).parse_args(argv)
+    a = parser(prog).parse_args(argv)
     if a.gtest_output and a.gtest_output.startswith('xml:') and not a.junit:
         a.junit = a.gtest_output[4:]
-    files = _expand(a.files)
+    files = expand(a.files)
     if a.check:
         return check(files, sets=a.set or (), max_runs=a.max_runs)
     if a.embedded and a.world_node:
@@ -161,7 +81,7 @@ def main(argv=None, prog='run_scenario'):
         return EXIT_ERROR
     if a.jobs or len(files) > 1:
         return farm(files, max(1, a.jobs), a)
-    res = _run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port,
+    res = run_one(a, files[0], attach=a.attach, replay=a.replay, port=a.port,
                    embedded=True if a.embedded else not a.world_node and 'auto')
     if res is None:
         return EXIT_ERROR
@@ -174,44 +94,6 @@ def main(argv=None, prog='run_scenario'):
                                        max(1, len(res.verdicts)), len(errs), ', '.join(errs),
                                        len(fails), ', '.join(fails)))
     return res.exit_code
-
-
-def _values(a, path):
-    """--set NAME=VALUE of parsed arguments ``a`` for file ``path`` (None without)."""
-    if not a.set:
-        return None
-    from .params import declared, parse_set
-    from .yamlsrc import read
-    return parse_set(a.set, declared(read(path), path), path)
-
-
-def run_argv(argv, warm=None, out=None):
-    """Run one run_scenario command line (a single scenario) in this process, in the warm
-    world ``warm`` (a testing_instance.warm.WarmHost); the exit code."""
-    a = _parser('run_scenario').parse_args(list(argv))
-    res = _run_one(a, _expand(a.files)[0], out=out, warm=warm)
-    return EXIT_ERROR if res is None else res.exit_code
-
-
-def _run_one(a, path, out=None, **kw):
-    """Run scenario ``path`` with the parsed arguments ``a`` (and run_file's ``kw``): its
-    Result, or None when --set is bad (said through ``out``)."""
-    try:
-        values = _values(a, path)
-    except ScenarioError as e:
-        (out or print)('ERROR ' + '\n  '.join(e.problems))
-        return None
-    return run_file(path, values=values, seed=a.seed, record=_record_arg(a.record),
-                    junit=a.junit, real_time_factor=a.rtf, report=a.report, out=out, **kw)
-
-
-def world_key_of(argv):
-    """The world (testing_instance.runner.world_key) a run_scenario command line needs."""
-    from .runner import world_key
-    from .scenario import load
-    a = _parser('run_scenario').parse_args(list(argv))
-    path = _expand(a.files)[0]
-    return world_key(load(path, values=_values(a, path)), a.report)
 
 
 _graph_gone = [False]     # this process's run has torn down the master it registered with

@@ -363,7 +363,7 @@ class _Quick(object):
 # -- the worker: run_scenario --warm-worker ------------------------------------------------
 def worker_main(stdin=None, stdout=None):
     """Read jobs (run_scenario command lines) and run each in this process's warm world."""
-    from .cli import run_argv
+    from .command import run_argv
     stdin = stdin or sys.stdin
     proto = stdout or os.fdopen(os.dup(sys.stdout.fileno()), 'w', buffering=1)
     # everything else this process prints (rospy's console lines) is not the protocol
@@ -557,7 +557,7 @@ def sort_by_world(items):
 
 def _key_of(argv):
     """The world key of a run_scenario command line (None: not known, e.g. a bad file)."""
-    from .cli import world_key_of
+    from .command import world_key_of
     try:
         return repr(world_key_of(argv))
     except Exception:  # noqa: BLE001 - the run will say what is wrong

@@ -24,12 +24,20 @@ assert sys.argv[2:] == ['--warm-worker'], sys.argv
 for line in sys.stdin:
     job = json.loads(line)
     what = os.path.basename(job['argv'][0])
+    if os.environ.get('FAKE_WORKER_LOG'):
+        with open(os.environ['FAKE_WORKER_LOG'], 'a') as log:
+            log.write('%%d %%s %%s\n' %% (os.getpid(), 'prepare' if job.get('prepare')
+                                          else 'run', job['argv'][0]))
+    if job.get('prepare'):          # a spare worker launches the world of argv
+        print(json.dumps({'id': job['id'], 'exit': 0}), flush=True)
+        continue
     print(json.dumps({'id': job['id'], 'line': 'worker %%d runs %%s' %% (os.getpid(), what)}),
           flush=True)
     if what == 'die':
         sys.stderr.write('the fake worker dies\n')
         sys.stderr.flush()
         os._exit(9)
+    print(json.dumps({'id': job['id'], 'started': True}), flush=True)    # at sim time 0
     print('not json: ignored', flush=True)
     print(json.dumps({'id': job['id'], 'line': 'PASS x: %%s' %% what}), flush=True)
     print(json.dumps({'id': job['id'], 'exit': 0 if what == 'pass' else 1}), flush=True)
@@ -200,3 +208,124 @@ def test_a_warm_world_grown_by_half_is_relaunched(monkeypatch):
     assert h.rss_base == 300000
     monkeypatch.undo()
     assert warm.procs.rss_kb(os.getpid()) > 1000 and warm.procs.rss_kb(None) is None
+
+
+def test_a_spare_worker_launches_the_next_world_while_one_runs(fake_python, monkeypatch,
+                                                               tmp_path):
+    """--jobs 1: one scenario at a time, and one worker more launches the world of the
+    next scenario no worker has; that worker then runs its scenarios (no relaunch)."""
+    log = tmp_path / 'workers.log'
+    monkeypatch.setenv('FAKE_WORKER_LOG', str(log))
+    monkeypatch.setattr(warm, '_key_of', lambda argv: 'world-' + argv[0][0])
+    names = ['a1', 'a2', 'a3', 'b1', 'b2', 'c1']
+    got = []
+    warm.Pool(1, python=fake_python).run([(n, [n]) for n in names], lambda *r: got.append(r))
+    assert sorted(t for t, _rc, _x, _w in got) == names
+    assert all(rc == 1 and 'PASS x: ' + t in x for t, rc, x, _w in got)   # the fake's exit
+    rows = [ln.split() for ln in log.read_text().splitlines()]
+    runs = {name: pid for pid, what, name in rows if what == 'run'}
+    prepared = {(pid, name[0]) for pid, what, name in rows if what == 'prepare'}
+    # b's and c's worlds were launched ahead, by the workers that then ran them
+    assert (runs['b1'], 'b') in prepared and (runs['c1'], 'c') in prepared
+    assert runs['b1'] == runs['b2'] and runs['a1'] == runs['a2'] == runs['a3']
+    # the first world's scenarios ran in order, one at a time, in one worker
+    assert [n for _p, w, n in rows if w == 'run'] == names
+    # a worker whose world was done became the spare instead of a new worker: 2 in all
+    assert len({pid for pid, _w, _n in rows}) == 2
+
+
+def test_without_a_spare_no_world_is_launched_ahead(fake_python, monkeypatch, tmp_path):
+    log = tmp_path / 'workers.log'
+    monkeypatch.setenv('FAKE_WORKER_LOG', str(log))
+    monkeypatch.setattr(warm, '_key_of', lambda argv: 'world-' + argv[0][0])
+    got = []
+    warm.Pool(1, python=fake_python, spare=False).run([(n, [n]) for n in ['a1', 'b1']],
+                                                     lambda *r: got.append(r))
+    assert len(got) == 2
+    rows = [ln.split() for ln in log.read_text().splitlines()]
+    assert [w for _p, w, _n in rows] == ['run', 'run'] and len({p for p, _w, _n in rows}) == 1
+
+
+LEAVER = r'''
+import os, signal, sys, time
+flag, linger = sys.argv[1], float(sys.argv[2])
+def on_int(*_a):
+    open(flag, 'w').close()         # "unregistered": out of the graph at once
+    time.sleep(linger)              # ... and a slow exit (rospy's takes 0.65 s)
+    os._exit(0)
+if linger >= 0:
+    signal.signal(signal.SIGINT, on_int)
+else:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)     # never leaves
+open(flag + '.up', 'w').close()
+while True:
+    time.sleep(0.05)
+'''
+
+
+class FakeMaster(object):
+    """lookupNode: the app's URI until its flag file exists (it unregistered)."""
+
+    def __init__(self, flags):
+        self.flags = flags
+
+    def lookupNode(self, name):
+        if os.path.exists(self.flags[name]):
+            raise Exception('unknown node %s' % name)
+        return 'http://localhost:1/' + name
+
+
+def leaver(tmp_path, name, linger):
+    import time as _t
+    from testing_instance.procs import Proc
+    script = tmp_path / 'leaver.py'
+    script.write_text(LEAVER)
+    flag = str(tmp_path / name.strip('/'))
+    p = Proc([sys.executable, str(script), flag, str(linger)], dict(os.environ),
+             flag + '.log')
+    t0 = _t.monotonic()
+    while not os.path.exists(flag + '.up') and _t.monotonic() - t0 < 10:
+        _t.sleep(0.01)
+    return p, flag
+
+
+def settled_host(tmp_path, monkeypatch, flags):
+    host = warm.WarmHost(run_dir=str(tmp_path / 'host'))
+    host.port = 1
+    monkeypatch.setattr(host, '_master', lambda: FakeMaster(flags))
+    monkeypatch.setattr(warm, '_forget_gone', lambda m, keep: None)
+    return host
+
+
+def test_settle_waits_until_an_app_left_the_graph_not_until_it_exited(tmp_path, monkeypatch):
+    import time as _t
+    p, flag = leaver(tmp_path, '/slow_app', 2.0)
+    host = settled_host(tmp_path, monkeypatch, {'/slow_app': flag})
+    host.leave([('/slow_app', p)])
+    t0 = _t.monotonic()
+    host.settle()
+    assert _t.monotonic() - t0 < 1.5          # not the 2 s of its exit
+    assert os.path.exists(flag) and p.alive()  # it left the graph and is still exiting
+    assert [q for q, _d in host.exiting] == [p]
+    host._reap(wait=True)                      # close(): its exit is awaited
+    assert not p.alive() and p.p.returncode == 0 and host.exiting == []
+
+
+def test_settle_waits_for_the_exit_of_a_process_it_cannot_see_in_the_graph(tmp_path,
+                                                                           monkeypatch):
+    import time as _t
+    p, flag = leaver(tmp_path, '/spawner', 0.8)
+    host = settled_host(tmp_path, monkeypatch, {})
+    host.leave([(None, p)])                    # no node name: only its exit tells
+    t0 = _t.monotonic()
+    host.settle()
+    assert _t.monotonic() - t0 >= 0.7 and not p.alive() and host.exiting == []
+
+
+def test_an_app_that_never_leaves_is_killed_at_the_grace(tmp_path, monkeypatch):
+    import signal as _s
+    p, flag = leaver(tmp_path, '/stubborn', -1)
+    host = settled_host(tmp_path, monkeypatch, {'/stubborn': flag})
+    host.leave([('/stubborn', p)])
+    host.settle(grace=0.5)
+    assert not p.alive() and p.p.returncode == -_s.SIGKILL and host.exiting == []

@@ -4,12 +4,14 @@ farms, sweeps, clusters, checks), so a farm's worker needs nothing above it."""
 import argparse
 import glob
 import os
+import shutil
+import time
 
 from .runner import EXIT_ERROR, run_file
 from .yamlsrc import ScenarioError
 
-__all__ = ['expand', 'parser', 'record_arg', 'run_argv', 'run_one', 'values_of',
-           'world_key_of']
+__all__ = ['expand', 'parser', 'prepare_argv', 'record_arg', 'run_argv', 'run_one',
+           'values_of', 'world_key_of']
 
 
 def parser(prog):
@@ -99,12 +101,32 @@ def values_of(a, path):
     return parse_set(a.set, declared(read(path), path), path)
 
 
-def run_argv(argv, warm=None, out=None):
+def run_argv(argv, warm=None, out=None, on_start=None):
     """Run one run_scenario command line (a single scenario) in this process, in the warm
-    world ``warm`` (a testing_instance.warm.WarmHost); the exit code."""
+    world ``warm`` (a testing_instance.warm.WarmHost); the exit code. ``on_start()`` is
+    called when the scenario reaches sim time 0."""
     a = parser('run_scenario').parse_args(list(argv))
-    res = run_one(a, expand(a.files)[0], out=out, warm=warm)
+    res = run_one(a, expand(a.files)[0], out=out, warm=warm, on_start=on_start)
     return EXIT_ERROR if res is None else res.exit_code
+
+
+def prepare_argv(argv, warm):
+    """Make the warm world ``warm`` (a WarmHost) hold the world that run_scenario command
+    line's scenario needs, launched and answering, without running it (a farm's spare
+    worker launches the next world while another worker runs)."""
+    from . import procs
+    from .runner import Runner
+    from .scenario import load
+    procs.first_run()      # its first scenario's start-up counts from its job, not from here
+    a = parser('run_scenario').parse_args(list(argv))
+    path = expand(a.files)[0]
+    sc = load(path, values=values_of(a, path))
+    r = Runner(sc, seed=a.seed, real_time_factor=a.rtf, report=a.report, warm=warm,
+               out=lambda s: None)
+    try:
+        warm.ready(r, time.monotonic() + min(sc.timeout, 120.0))
+    finally:
+        shutil.rmtree(r.run_dir, ignore_errors=True)
 
 
 def run_one(a, path, out=None, **kw):

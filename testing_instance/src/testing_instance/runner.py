@@ -59,8 +59,9 @@ __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS',
 class Runner(Actions):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
-                 warm=None, embedded=False):
+                 warm=None, embedded=False, on_start=None):
         self.sc = scenario
+        self.on_start = on_start   # called at sim time 0 (a farm's worker tells its pool)
         self.seed = scenario.seed if seed is None else int(seed)
         self.rtf = scenario.real_time_factor if real_time_factor is None \
             else float(real_time_factor)
@@ -939,6 +940,8 @@ class Runner(Actions):
         self._sync()
         self._drain()
         self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
+        if self.on_start is not None:
+            self.on_start()
         self._meta()
         for ev in self.sc.timeline:
             if 'at' in ev:
@@ -1060,10 +1063,12 @@ class Runner(Actions):
                 self.storage_problems = self.bag.close()
                 self.bag = None
         if self.warm is not None:
-            # the world stays for the next scenario; the apps get SIGINT and finish their
-            # rospy exit (0.7 s) while the next scenario's reload and apps start
-            # (WarmHost.leave / settle)
-            self.warm.leave([p for p in self.procs if p is not self.world_proc])
+            # the world stays for the next scenario; the apps get SIGINT and leave the
+            # graph while the next scenario's reload and apps start; their rospy exit
+            # (0.65 s) is not waited for (WarmHost.leave / settle)
+            names = {id(p): n for n, p in self.app_procs}
+            self.warm.leave([(names.get(id(p)), p) for p in self.procs
+                             if p is not self.world_proc])
             self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
         elif self.embedded:
             # the world is this process (it ends with it); its launch nodes and apps stop

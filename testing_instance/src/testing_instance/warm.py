@@ -20,7 +20,13 @@ old world stopped and its own launched. The reset between scenarios
 So a scenario sees what it would see in a fresh world: ``test_warm_world_gives_the_cold_
 recording`` runs A then B warm and B cold and compares B's recordings message by message.
 The runner itself runs in the worker process: Python, rospy and the imports are paid once
-per worker, not per scenario.
+per worker, not per scenario. The last scenario's apps get SIGINT at its end; the next one
+waits until they have left the ROS graph (unregistered), not for their rospy exit.
+
+While N scenarios run, one **spare** worker more launches the world of the next scenario no
+worker has (``{"id": N, "argv": [...], "prepare": true}``); a worker whose world no pending
+scenario needs becomes that spare. So a farm's later worlds start while others run, on the
+core the running scenario leaves idle, and one scenario at a time still runs per job.
 
 The farm talks to a worker through its standard input and output, one JSON object per
 line: ``{"id": N, "argv": [...]}`` (a run_scenario command line) in,
@@ -66,15 +72,18 @@ class WarmHost(object):
         self.base_nodes = set()
         self.log_offset = 0
         self.broken = False       # the master died under this process's node
-        self.leaving = []         # the last scenario's apps, exiting (leave, settle)
+        self.leaving = []         # the last scenario's apps: (name, uri, Proc) (leave, settle)
+        self.exiting = []         # (Proc, deadline): out of the graph, not yet exited
         self.rss_base = None      # kB of the world node at its first scenario
 
     # -- what a Runner asks --------------------------------------------------------------
     def env(self):
         return procs.ros_env(os.path.join(self.dir, 'log'), self.port)
 
-    def prepare(self, runner, deadline):
-        """Make the world ``runner``'s scenario needs ready at sim time 0, paused."""
+    def ready(self, runner, deadline):
+        """The master and the world ``runner``'s scenario needs, launched (or kept) and
+        answering; this process's node on that master. ``prepare`` then resets the world
+        for the scenario; a farm's spare worker calls only this (Pool._deal)."""
         key = runner.world_key()
         for attempt in (1, 2):
             fresh = self.core is None or not self.core.alive()
@@ -112,27 +121,61 @@ class WarmHost(object):
                 self._clear(self.base_params, self.base_nodes | set(CORE_NODES))
             break
         runner.init_ros()                # once per worker: the node lives on the master
+
+    def prepare(self, runner, deadline):
+        """Make the world ``runner``'s scenario needs ready at sim time 0, paused."""
+        self.ready(runner, deadline)
         self.reset(runner)
 
     def leave(self, apps):
-        """The apps (procs.Proc) of the scenario that ended: SIGINT now; their exit is
-        awaited by ``settle`` (the next scenario, before it subscribes or steps) or
-        ``close``."""
-        for p in apps:
+        """The processes of the scenario that ended, as (ROS node name or None, procs.Proc):
+        SIGINT now. ``settle`` (the next scenario, before it subscribes or steps) waits
+        until each has left the ROS graph; ``close`` until each has exited."""
+        m = self._master() if self.port else None
+        for name, p in apps:
+            uri = None
+            if name and m is not None and p.alive():
+                try:
+                    uri = m.lookupNode(name)      # this process's node, not a later namesake
+                except Exception:  # noqa: BLE001 - never registered, or the master is gone
+                    pass
             p.interrupt()
-        self.leaving += list(apps)
+            self.leaving.append((name, uri, p))
 
     def settle(self, grace=10.0):
-        """Wait until the last scenario's apps have exited (SIGKILL after ``grace`` s) and
-        remove what the killed ones left registered."""
+        """Wait until every process of the last scenario has left the ROS graph: it exited,
+        or its node is no longer registered under its URI. rospy unregisters within
+        milliseconds of SIGINT, then takes another 0.65 s to exit (its threads poll for
+        shutdown every 0.5 s): the next scenario need not wait for that. A process that
+        was never registered is waited for until it exits. What is still in the graph at
+        ``grace`` s is SIGKILLed and its registrations removed; processes out of the graph
+        but still exiting are reaped later (``_reap``), SIGKILLed if alive at ``grace``."""
         deadline = time.monotonic() + grace
+        m = self._master() if self.port else None
         killed = False
-        for p in self.leaving:
-            p.finish(deadline)            # SIGKILL at the deadline
+        for name, uri, p in self.leaving:
+            while p.alive() and time.monotonic() < deadline and _registered(m, name, uri):
+                time.sleep(0.002)
+            if p.alive() and not _registered(m, name, uri):
+                self.exiting.append((p, deadline))
+                continue
+            p.finish(deadline)                # SIGKILL at the deadline
             killed |= p.p.returncode == -signal.SIGKILL
         self.leaving = []
+        self._reap()
         if killed and self.port:
             _forget_gone(self._master(), set())
+
+    def _reap(self, wait=False):
+        """Close the processes that left the graph and exited since; SIGKILL those alive
+        past their deadline (``wait``: wait for each until its deadline)."""
+        still = []
+        for p, deadline in self.exiting:
+            if p.alive() and not wait and time.monotonic() < deadline:
+                still.append((p, deadline))
+            else:
+                p.finish(deadline)
+        self.exiting = still
 
     def _grown(self):
         """The world node's memory grew past RSS_GROWTH times what it had at its first
@@ -280,6 +323,7 @@ class WarmHost(object):
 
     def close(self):
         self.settle()
+        self._reap(wait=True)
         self._stop_world()
         if self.core is not None:
             procs.kill_tree(self.core)
@@ -291,6 +335,17 @@ class WarmHost(object):
 def _rospy_up():
     import rospy.core
     return rospy.core.is_initialized()
+
+
+def _registered(m, name, uri):
+    """Is the node ``name`` still registered with master ``m`` under ``uri``? (True when
+    that cannot be known: no name or URI.)"""
+    if m is None or not name or not uri:
+        return True
+    try:
+        return m.lookupNode(name) == uri
+    except Exception:  # noqa: BLE001 - unknown to the master (or the master is gone)
+        return False
 
 
 def _said(path, what):
@@ -363,7 +418,7 @@ class _Quick(object):
 # -- the worker: run_scenario --warm-worker ------------------------------------------------
 def worker_main(stdin=None, stdout=None):
     """Read jobs (run_scenario command lines) and run each in this process's warm world."""
-    from .command import run_argv
+    from .command import prepare_argv, run_argv
     stdin = stdin or sys.stdin
     proto = stdout or os.fdopen(os.dup(sys.stdout.fileno()), 'w', buffering=1)
     # everything else this process prints (rospy's console lines) is not the protocol
@@ -381,9 +436,23 @@ def worker_main(stdin=None, stdout=None):
                 continue
             job = json.loads(line)
             jid = job['id']
+            if job.get('prepare'):
+                # a spare worker: launch this command line's world and wait (Pool._deal)
+                try:
+                    prepare_argv(job['argv'], host)
+                    code = 0
+                except Exception as e:  # noqa: BLE001 - said when its scenario runs here
+                    send({'id': jid, 'line': 'the warm world did not start: %s: %s'
+                          % (type(e).__name__, e)})
+                    code = EXIT_ERROR
+                send({'id': jid, 'exit': code})
+                if host.broken:
+                    break
+                continue
             try:
                 code = run_argv(job['argv'], warm=host,
-                                out=lambda s, i=jid: send({'id': i, 'line': s}))
+                                out=lambda s, i=jid: send({'id': i, 'line': s}),
+                                on_start=lambda i=jid: send({'id': i, 'started': True}))
             except Exception as e:  # noqa: BLE001 - the job is an ERROR, the worker lives on
                 send({'id': jid, 'line': 'ERROR the warm worker failed: %s: %s'
                       % (type(e).__name__, e)})
@@ -405,9 +474,10 @@ class Pool(object):
     worker's world is reused; a worker that dies costs its scenario (an ERROR with its log
     tail) and is replaced."""
 
-    def __init__(self, jobs, warm=True, env=None, python=None):
+    def __init__(self, jobs, warm=True, env=None, python=None, spare=True):
         self.jobs = max(1, int(jobs))
         self.warm = warm
+        self.spare = 1 if spare else 0   # workers beyond ``jobs`` launching the next world
         self.env = dict(env or os.environ)
         self.env.pop('ROS_MASTER_URI', None)      # each worker/run starts its own master
         self.env.setdefault('ROS_HOSTNAME', 'localhost')
@@ -448,20 +518,13 @@ class Pool(object):
                 for w in [w for w in workers if not w.alive() and w.job is None]:
                     w.close()                    # died: its scenario is said; replaced
                     workers.remove(w)
-                for w in workers:
-                    if w.job is None and pending and w.alive():
-                        w.give(*_pick(w, pending, workers))
-                while pending and len(workers) < self.jobs and \
-                        all(w.job is not None for w in workers if w.alive()):
-                    w = _Worker(self, self.started, events)
-                    self.started += 1
-                    workers.append(w)
-                    w.give(*_pick(w, pending, workers))
+                self._deal(pending, workers, events)
                 try:
                     w, msg = events.get(timeout=1.0)
                 except queue.Empty:
                     continue
                 if msg is None:                           # the worker's output ended
+                    w.prep = None
                     if w.job is not None:
                         (_i, (tag, _argv)), t0, lines = w.job, w.t0, w.lines
                         w.job = None
@@ -471,10 +534,15 @@ class Pool(object):
                         done(tag, EXIT_ERROR, '\n'.join(lines) + '\n',
                              time.monotonic() - t0)
                     continue
+                if w.prep is not None and msg.get('id') == w.prep and 'exit' in msg:
+                    w.prep = None                # its world is ready (or it will say why not
+                    continue                     # when a scenario of that world runs there)
                 if w.job is None or msg.get('id') != w.job[0]:
                     continue
                 if 'line' in msg:
                     w.lines.append(msg['line'])
+                elif 'started' in msg:
+                    w.running = True
                 elif 'exit' in msg:
                     (_i, (tag, _argv)), t0 = w.job, w.t0
                     text = '\n'.join(w.lines) + ('\n' if w.lines else '')
@@ -483,6 +551,49 @@ class Pool(object):
         finally:
             for w in workers:
                 w.close()
+
+    def _deal(self, pending, workers, events):
+        """Give idle workers scenarios, at most ``jobs`` running: first to a worker that has
+        (or is launching) the scenario's world, then to any (it launches the world), then
+        to new workers. Then the spare: one worker more than ``jobs`` launches the world
+        of the next scenario no worker has, while the others run (a scenario then starts in
+        a world that is ready); a worker whose world no pending scenario needs any more
+        becomes that spare instead of a new one."""
+        def idle():
+            return [w for w in workers if w.job is None and w.alive()]
+
+        def busy():
+            return sum(w.job is not None for w in workers)
+        for _i, _it, k in list(pending):                  # in the farm's order
+            w = next((w for w in idle() if k is not None and w.key == k), None)
+            if w is not None and busy() < self.jobs:
+                w.give(*_pick(w, pending, workers))
+        for w in idle():
+            if busy() < self.jobs and pending:
+                w.give(*_pick(w, pending, workers))
+        while pending and busy() < self.jobs and len(workers) < self.jobs + self.spare and \
+                all(w.job is not None for w in workers if w.alive()):
+            w = self._new_worker(events, workers)
+            w.give(*_pick(w, pending, workers))
+        if not self.spare or not all(w.running for w in workers if w.job is not None):
+            return                       # the spare starts while the others run, not start
+        held = {w.key for w in workers if w.alive()}
+        nxt = next(((i, item, k) for i, item, k in pending if k is not None and k not in held),
+                   None)
+        if nxt is None:
+            return
+        needed = {k for _i, _it, k in pending}
+        free = [w for w in idle() if w.prep is None and w.key not in needed]
+        if free:
+            free[0].prepare('p%d' % nxt[0], nxt[1][1], nxt[2])
+        elif len([w for w in workers if w.alive()]) < self.jobs + self.spare:
+            self._new_worker(events, workers).prepare('p%d' % nxt[0], nxt[1][1], nxt[2])
+
+    def _new_worker(self, events, workers):
+        w = _Worker(self, self.started, events)
+        self.started += 1
+        workers.append(w)
+        return w
 
 
 class _Worker(object):
@@ -494,6 +605,8 @@ class _Worker(object):
                                   text=True, bufsize=1)
         self.job, self.t0, self.lines = None, 0.0, []
         self.key = None           # the world it has (or will have after its job)
+        self.prep = None          # the id of the world it is launching (Pool._deal's spare)
+        self.running = False      # its scenario reached sim time 0 (Pool._deal's spare)
         self.reader = threading.Thread(target=self._read, args=(events,), daemon=True)
         self.reader.start()
 
@@ -510,9 +623,16 @@ class _Worker(object):
 
     def give(self, i, item, key=None):
         self.job, self.t0, self.lines = (i, item), time.monotonic(), []
+        self.running = False
         if key is not None:
             self.key = key
         self.p.stdin.write(json.dumps({'id': i, 'argv': list(item[1])}) + '\n')
+        self.p.stdin.flush()
+
+    def prepare(self, i, argv, key):
+        """Launch the world of command line ``argv`` now, to run its scenarios later."""
+        self.prep, self.key = i, key
+        self.p.stdin.write(json.dumps({'id': i, 'argv': list(argv), 'prepare': True}) + '\n')
         self.p.stdin.flush()
 
     def close(self):

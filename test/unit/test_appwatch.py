@@ -2,6 +2,7 @@
 processes: idle, busy, stopped, one that does not read its connection, and one that dies
 slowly after an uncaught exception."""
 import contextlib
+import os
 import signal
 import socket
 import subprocess
@@ -10,6 +11,7 @@ import time
 
 import pytest
 
+from testing_instance import procs
 from testing_instance.appwatch import AppHung, AppWatch
 
 
@@ -158,3 +160,31 @@ def test_a_callback_exception_rospy_logs_is_not_waited_for(spawn, tmp_path):
     time.sleep(0.5)
     w = AppWatch([('/cb', p)], limit=0.2, exit_wait=5.0)
     assert waited(w) < 1.0 and not w.exiting
+
+
+def test_tcp_queues_reads_what_proc_net_tcp_says():
+    """The sock_diag netlink dump gives the same queues as /proc/net/tcp: unread bytes on
+    the receiving socket, nothing for empty ones (ESTABLISHED only)."""
+    import socket
+    import time as _t
+    lst = socket.socket()
+    lst.bind(('127.0.0.1', 0))
+    lst.listen(1)
+    c = socket.create_connection(lst.getsockname())
+    a, _ = lst.accept()
+    try:
+        c.sendall(b'x' * 1234)
+        inode = os.fstat(a.fileno()).st_ino
+        for _ in range(100):
+            q = procs.tcp_queues()
+            if q.get(inode) == (0, 1234):
+                break
+            _t.sleep(0.01)
+        assert q.get(inode) == (0, 1234)
+        assert procs._tcp_queues_proc().get(inode) == (0, 1234)
+        assert os.fstat(c.fileno()).st_ino not in q          # its queues are empty
+        a.recv(2000)
+        assert inode not in procs.tcp_queues()
+    finally:
+        for s in (c, a, lst):
+            s.close()

@@ -1,7 +1,10 @@
 """Child processes of a run (roscore, the world, the scenario's apps) and port allocation."""
 import os
 import signal
+import socket
+import struct
 import subprocess
+import threading
 import time
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
@@ -258,9 +261,72 @@ def socket_inodes(pid):
 def tcp_queues():
     """{socket inode: (bytes queued to send, bytes received and not yet read)} for every
     established TCP socket of this network namespace with bytes in a queue (absent: none).
-    The appwatch reads this many times a slice. Each file costs the kernel a walk of the
-    whole TCP hash table (1.1 ms here, even for an empty tcp6), so tcp6 is read only when
-    ROS uses IPv6 (ROS_IPV6=on; otherwise rospy and roscpp connect over IPv4)."""
+    The appwatch reads this many times a slice. Asked through the kernel's sock_diag
+    netlink interface (what ``ss`` uses), with only ESTABLISHED sockets dumped: 0.17 ms
+    here. /proc/net/tcp (the fallback where netlink is refused) formats every socket,
+    the hundreds in TIME_WAIT that XML-RPC calls leave too: 1.4 ms. IPv6 sockets are asked
+    only when ROS uses IPv6 (ROS_IPV6=on; otherwise rospy and roscpp connect over IPv4)."""
+    families = (socket.AF_INET, socket.AF_INET6) if os.environ.get('ROS_IPV6') == 'on' \
+        else (socket.AF_INET,)
+    try:
+        out = {}
+        for family in families:
+            out.update(_DIAG.established(family))
+        return out
+    except OSError:
+        return _tcp_queues_proc()
+
+
+class _SockDiag(object):
+    """One NETLINK_SOCK_DIAG socket per process (a lock for its dump)."""
+    REQ = 20                      # SOCK_DIAG_BY_FAMILY
+    DUMP = 0x301                  # NLM_F_REQUEST | NLM_F_DUMP
+    ESTABLISHED = 1 << 1          # TCP_ESTABLISHED
+
+    def __init__(self):
+        self.sock = None
+        self.pid = None
+        self.seq = 0
+        self.lock = threading.Lock()
+
+    def established(self, family):
+        with self.lock:
+            if self.sock is None or self.pid != os.getpid():     # a forked child: its own
+                self.sock = socket.socket(socket.AF_NETLINK, socket.SOCK_RAW, 4)
+                self.sock.connect((0, 0))
+                self.pid = os.getpid()
+            self.seq += 1
+            # inet_diag_req_v2: family, protocol, ext, pad, states; a zero inet_diag_sockid
+            req = struct.pack('=BBBBI', family, socket.IPPROTO_TCP, 0, 0,
+                              self.ESTABLISHED) + bytes(48)
+            self.sock.send(struct.pack('=IHHII', 16 + len(req), self.REQ, self.DUMP,
+                                       self.seq, 0) + req)
+            out = {}
+            while True:
+                data = self.sock.recv(65536)
+                off = 0
+                while off + 16 <= len(data):
+                    length, typ, _flags, seq, _pid = struct.unpack_from('=IHHII', data, off)
+                    if length < 16:
+                        raise OSError('sock_diag: a malformed netlink message')
+                    if seq == self.seq:
+                        if typ == 3:                             # NLMSG_DONE
+                            return out
+                        if typ == 2:                             # NLMSG_ERROR
+                            raise OSError('sock_diag refused the dump')
+                        # inet_diag_msg: 4 bytes, the 48-byte id, expires, rqueue, wqueue,
+                        # uid, inode
+                        rq, wq, _uid, inode = struct.unpack_from('=IIII', data, off + 72)
+                        if rq or wq:
+                            out[inode] = (wq, rq)
+                    off += (length + 3) & ~3
+
+
+_DIAG = _SockDiag()
+
+
+def _tcp_queues_proc():
+    """tcp_queues from /proc/net/tcp (and tcp6 with ROS_IPV6=on)."""
     out = {}
     names = ('/proc/net/tcp', '/proc/net/tcp6') if os.environ.get('ROS_IPV6') == 'on' \
         else ('/proc/net/tcp',)

@@ -650,16 +650,21 @@ class _Worker(object):
 
 def _pick(w, pending, workers):
     """The pending (i, item, key) worker ``w`` takes next: one on the world it has; else
-    one on a world no other worker has (each world is launched once while there are
-    others to launch); else the next."""
+    the first one on the world with the most pending scenarios per other worker that has
+    it (a world no other worker has counts them all: each small world is launched once,
+    a world with many scenarios gets more workers)."""
     for n, p in enumerate(pending):
         if p[2] is not None and p[2] == w.key:
             return pending.pop(n)
-    held = {x.key for x in workers if x is not w}
-    for n, p in enumerate(pending):
-        if p[2] not in held:
-            return pending.pop(n)
-    return pending.pop(0)
+    holders, count = {}, {}
+    for x in workers:
+        if x is not w:
+            holders[x.key] = holders.get(x.key, 0) + 1
+    for p in pending:
+        count[p[2]] = count.get(p[2], 0) + 1
+    best = max(range(len(pending)), key=lambda n: (
+        count[pending[n][2]] / (1.0 + holders.get(pending[n][2], 0)), -n))
+    return pending.pop(best)
 
 
 def sort_by_world(items):

@@ -127,3 +127,66 @@ def test_a_bad_world_parameter_is_one_line_and_no_wait(tmp_path):
     assert time.monotonic() - t0 < 60, out
     assert re.search(r'^ERROR the world died at sim time 0\.000 s', out, re.M), out
     assert "sim_world: ~max_step_size must be a number, got 'abc'" in out, out
+
+
+LAB_LAUNCH = """<launch>
+  <!-- the office world with its nodes in the namespace /lab and the IMU remapped -->
+  <arg name="paused" default="true"/>
+  <arg name="seed" default=""/>
+  <arg name="real_time_factor" default="0"/>
+  <arg name="physics" default="ode"/>
+  <group ns="lab">
+    <remap from="/mobile_device/imu_sensor_data" to="/lab/imu"/>
+    <include file="$(find mobile_device_sim)/sim_world/launch/office.launch">
+      <arg name="paused" value="$(arg paused)"/>
+      <arg name="seed" value="$(arg seed)"/>
+      <arg name="real_time_factor" value="$(arg real_time_factor)"/>
+      <arg name="physics" value="$(arg physics)"/>
+      <arg name="flycam" value="false"/>
+      <arg name="camera_rate" value="1"/>
+    </include>
+  </group>
+</launch>
+"""
+
+LAB_APP = """\
+import rosgraph, rospy
+from std_msgs.msg import String
+from sensor_msgs.msg import Imu
+rospy.init_node('lab_app')
+pub = rospy.Publisher('~seen', String, queue_size=1, latch=True)
+def on_imu(_m):
+    pubs, _subs, srvs = rosgraph.Master('/lab_app').getSystemState()
+    imu = sorted(n for t, ns in pubs if t == '/lab/imu' for n in ns)
+    step = sorted(n for s, ns in srvs if s == '/gazebo/step_world' for n in ns)
+    pub.publish(String(' '.join(imu) + ' | ' + ' '.join(step)))
+    sub.unregister()
+sub = rospy.Subscriber('/lab/imu', Imu, on_imu)
+rospy.spin()
+"""
+
+
+def test_a_namespaced_and_remapped_world_node_is_embedded_as_it_is_launched(tmp_path):
+    """The launch file's world node in a namespace (/lab/sim_world) with a remapping: the
+    embedded run is that node (an app sees it publish the remapped IMU and serve
+    /gazebo/step_world) and records what the sim_world node records."""
+    (tmp_path / 'lab.launch').write_text(LAB_LAUNCH)
+    (tmp_path / 'lab_app.py').write_text(LAB_APP)
+    (tmp_path / 'lab.yaml').write_text(
+        'name: lab\nduration: 0.5\nworld: {launch: lab.launch}\n'
+        'apps: [{name: lab_app, script: lab_app.py}]\n'
+        'expect:\n'
+        '  - {name: imu, topic: /lab/imu, rate: {near: 100, tol: 3}}\n'
+        "  - {name: graph, topic: /lab_app/seen, field: data, eventually: "
+        "{equals: '/lab/sim_world | /lab/sim_world'}}\n")
+    rc_e, emb = run_scenario(tmp_path / 'lab.yaml', '--embedded', '--record',
+                             tmp_path / 'emb.bag')
+    rc_n, node = run_scenario(tmp_path / 'lab.yaml', '--world-node', '--record',
+                              tmp_path / 'node.bag')
+    assert rc_e == 0 and rc_n == 0, emb + node
+    assert verdicts(emb) == verdicts(node) == {'imu': 'PASS', 'graph': 'PASS'}, emb + node
+    e, n = bag_messages(tmp_path / 'emb.bag'), bag_messages(tmp_path / 'node.bag')
+    assert '/lab/imu' in n and '/mobile_device/imu_sensor_data' not in n
+    assert sorted(e) == sorted(n)
+    for topic in n:
+        assert e[topic] == n[topic], '%s differs embedded and not' % topic

@@ -194,3 +194,30 @@ def test_pose_source_is_pulled_at_each_render():
     where['y'] = 0.5
     x2, _ = _red_centroid(r.render(view))
     assert abs(x2 - x1) < 0.5               # no source: the last pose stays
+
+
+def test_wait_sent_returns_once_the_writer_wrote_every_message():
+    """step_world answers only when the slice's messages are in the subscribers' sockets:
+    wait_sent blocks while the writer thread still holds some, and gives up when no write
+    happens for ``stall`` s (a subscriber that stopped reading)."""
+    t = FakeTransport()
+    c = fastpub.NoYieldConnection(t, 100)
+    try:
+        for i in range(3):
+            c.write_data(b'm%d' % i)
+        assert c.unsent() == 3 and fastpub.unsent() >= 3
+        t0 = time.monotonic()
+        assert fastpub.wait_sent(stall=0.3) is False          # the writer is stuck
+        assert 0.25 <= time.monotonic() - t0 < 2.0
+        threading.Timer(0.2, t.release.set).start()
+        t0 = time.monotonic()
+        assert fastpub.wait_sent(stall=5.0) is True
+        assert time.monotonic() - t0 < 3.0
+        assert t.got == [b'm0', b'm1', b'm2'] and c.unsent() == 0 and c.sent == 3
+    finally:
+        t.release.set()
+        t.done = True
+        with c._lock:
+            c._cond_data_available.notify()
+    c.write_data(b'late')                        # a closed connection holds nothing
+    assert c.unsent() == 0

@@ -18,9 +18,10 @@ with rospy's own queue.
 import logging
 import threading
 import time
+import weakref
 
 __all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'no_yield', 'publisher',
-           'set_sim_clock', 'take_times']
+           'set_sim_clock', 'take_times', 'unsent', 'wait_sent']
 
 log = logging.getLogger('sim_world.fastpub')
 
@@ -29,6 +30,8 @@ _locals = []                   # the live _LocalDelivery objects
 _inline_callbacks = set()      # in-process subscriber callbacks run in the publishing thread
 _timed_subscribers = set()     # caller ids that asked for times (take_times)
 MAX_TIMES = 100000             # per connection, should a subscriber stop asking
+_sent = threading.Condition(threading.Lock())   # notified when a connection wrote a message
+_connections = weakref.WeakSet()                # the live NoYieldConnections
 
 
 def set_sim_clock(fn):
@@ -55,8 +58,32 @@ class NoYieldConnection(_Queued):
     those dropped."""
     dropped = 0
     handed = 0
+    sent = 0
     times = None
     unstamped = False
+
+    def __init__(self, connection, queue_size):
+        super(NoYieldConnection, self).__init__(connection, queue_size)
+        write = connection.write_data
+
+        def counted(data):
+            # the writer thread's write to the socket: ``sent`` counts it (wait_sent)
+            try:
+                return write(data)
+            finally:
+                with _sent:
+                    self.sent += 1
+                    _sent.notify_all()
+        connection.write_data = counted
+        _connections.add(self)
+
+    def unsent(self):
+        """Messages handed to this connection, not dropped, not yet written to its socket
+        (0 once the connection is closed or failed)."""
+        with self._lock:
+            if self._error or getattr(self._connection, 'done', False):
+                return 0
+            return max(0, self.handed - self.dropped - self.sent)
 
     def write_data(self, data):
         with self._lock:
@@ -226,6 +253,33 @@ class _LocalDelivery(object):
                 if cb not in inline:            # (those had it in the publishing thread)
                     sub._invoke_callback(msg, cb, cb_args)
             self.delivered += 1
+
+
+def unsent():
+    """Messages this process's publishers handed to remote subscribers' connections and
+    have not written to their sockets yet."""
+    return sum(c.unsent() for c in list(_connections))
+
+
+def wait_sent(stall=0.2):
+    """Block until every message handed to a remote subscriber's connection is written to
+    its socket (so it is in the subscriber's receive queue, where the testing instance's
+    evidence that an app has answered looks), or until ``stall`` s of wall time pass
+    without a single write (a subscriber that stopped reading: its socket is full, its
+    writer blocked; the appwatch names that app). True: all written."""
+    last, deadline = None, None
+    with _sent:
+        while True:
+            conns = list(_connections)
+            if not any(c.unsent() for c in conns):
+                return True
+            mark = sum(c.sent for c in conns)
+            now = time.monotonic()
+            if mark != last:
+                last, deadline = mark, now + stall
+            if now >= deadline:
+                return False
+            _sent.wait(deadline - now)
 
 
 def deliver_inline(callback, on=True):

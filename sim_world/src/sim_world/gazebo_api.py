@@ -233,6 +233,9 @@ class GazeboRosApi(object):
             if rospy.is_shutdown():
                 break
         self.step_until = None
+        # the slice's messages to remote subscribers are in their sockets before the answer:
+        # an app that looks idle then has answered (testing_instance.appwatch's evidence)
+        fastpub.wait_sent()
         counts = fastpub.handed_to(req.subscriber) if req.subscriber else {}
         times = fastpub.take_times(req.subscriber) if req.subscriber else {}
         topics = sorted(counts)

@@ -5,7 +5,11 @@ that is done with the slice's messages is idle: none of its threads is running (
 no byte waits on its TCP connections (nothing queued to send, nothing received and not yet
 read), and nothing it sent waits in the runner (the runner's sockets are empty and every
 message its subscriptions deserialised has reached the inbox: ``own_pending``). The runner
-checks that after each slice (``wait``), woken by every message that arrives.
+checks that after each slice (``wait``), woken by every message that arrives. The world
+answers a step only once every message of the slice is written to its subscribers'
+sockets (sim_world.fastpub.wait_sent): a message still in the world's queue for an app
+would look like an idle app with nothing to read. The queues are read through netlink
+(procs.tcp_queues), fast enough that without that wait the runner did look first.
 
 The same readings tell a hung app: a connection of it has had unread bytes at every look
 for ``hang_after`` s of wall time, or every one of its threads is stopped (SIGSTOP). That is an error naming the app (``AppHung``). An app that never falls idle (it

@@ -47,10 +47,15 @@ class LaunchPlan(object):
         rospy.init_node and sim_world.node.host_from_params."""
         argv = ['sim_world'] + (self.world.args.split() if self.world.args else [])
         argv += ['%s:=%s' % tuple(kv) for kv in self.world.remap_args]
-        ns = self.world.namespace or '/'
-        if ns.strip('/'):
+        ns = self.world_namespace()
+        if ns != '/':
             argv.append('__ns:=%s' % ns)
         return argv
+
+    def world_namespace(self):
+        """The world node's namespace, global, ending in '/' ('/' for none)."""
+        from rosgraph.names import make_global_ns
+        return make_global_ns(self.world.namespace or '/')
 
     def set_params(self, master):
         """Clear and set the launch file's parameters as roslaunch does."""

@@ -303,6 +303,11 @@ class Runner(Actions):
         if self.embedded:
             # one rospy process is one node: the runner is the world node (embed.py)
             argv = self.launch_plan.world_argv()
+            # rospy takes a node's namespace from ROS_NAMESPACE or this process's own argv
+            # when it is imported, never from init_node's argv (__ns:=): set it as
+            # roslaunch's ROS_NAMESPACE would (not in the environment: the apps inherit it)
+            import rospy.names
+            rospy.names._set_caller_id(self.launch_plan.world_namespace() + 'unnamed')
             rospy.init_node(self.launch_plan.world.name, argv=argv, disable_signals=True)
             self._embed_world(argv)
         elif not rospy.core.is_initialized():    # a warm worker's runners share the node

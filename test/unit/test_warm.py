@@ -329,3 +329,12 @@ def test_an_app_that_never_leaves_is_killed_at_the_grace(tmp_path, monkeypatch):
     host.leave([('/stubborn', p)])
     host.settle(grace=0.5)
     assert not p.alive() and p.p.returncode == -_s.SIGKILL and host.exiting == []
+
+
+def test_pick_gives_a_world_with_many_scenarios_a_second_worker():
+    w1, w2 = types.SimpleNamespace(key='A'), types.SimpleNamespace(key=None)
+    pending = [(0, 'b0', 'B'), (1, 'a0', 'A'), (2, 'a1', 'A'), (3, 'a2', 'A'), (4, 'a3', 'A')]
+    # A: 4 pending for the 1 worker that has it (4/2) beats B: 1 for none (1/1)
+    assert warm._pick(w2, pending, [w1, w2])[1] == 'a0'
+    pending = [(0, 'b0', 'B'), (1, 'a0', 'A')]
+    assert warm._pick(w2, pending, [w1, w2])[1] == 'b0'     # 1/1 beats 1/2

@@ -474,10 +474,14 @@ class Pool(object):
     worker's world is reused; a worker that dies costs its scenario (an ERROR with its log
     tail) and is replaced."""
 
-    def __init__(self, jobs, warm=True, env=None, python=None, spare=True):
+    def __init__(self, jobs, warm=True, env=None, python=None, spare=None):
         self.jobs = max(1, int(jobs))
         self.warm = warm
-        self.spare = 1 if spare else 0   # workers beyond ``jobs`` launching the next world
+        # a worker beyond ``jobs`` launching the next world (_deal). None: when the jobs
+        # leave a CPU idle (--jobs 2 on 2 cores measured 13.8 s without it, 14.6 s with)
+        if spare is None:
+            spare = self.jobs < len(os.sched_getaffinity(0))
+        self.spare = 1 if spare else 0
         self.env = dict(env or os.environ)
         self.env.pop('ROS_MASTER_URI', None)      # each worker/run starts its own master
         self.env.setdefault('ROS_HOSTNAME', 'localhost')

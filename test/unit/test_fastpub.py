@@ -209,6 +209,9 @@ def test_wait_sent_returns_once_the_writer_wrote_every_message():
         t0 = time.monotonic()
         assert fastpub.wait_sent(stall=0.3) is False          # the writer is stuck
         assert 0.25 <= time.monotonic() - t0 < 2.0
+        t0 = time.monotonic()                                 # ... and not waited for again
+        assert fastpub.wait_sent(stall=0.3) is False
+        assert time.monotonic() - t0 < 0.1
         threading.Timer(0.2, t.release.set).start()
         t0 = time.monotonic()
         assert fastpub.wait_sent(stall=5.0) is True

@@ -61,6 +61,8 @@ class NoYieldConnection(_Queued):
     sent = 0
     times = None
     unstamped = False
+    busy_since = 0.0      # monotonic time it last got a message with nothing unsent
+    last_write = 0.0      # ... and of its last write to the socket
 
     def __init__(self, connection, queue_size):
         super(NoYieldConnection, self).__init__(connection, queue_size)
@@ -73,6 +75,7 @@ class NoYieldConnection(_Queued):
             finally:
                 with _sent:
                     self.sent += 1
+                    self.last_write = time.monotonic()
                     _sent.notify_all()
         connection.write_data = counted
         _connections.add(self)
@@ -90,6 +93,8 @@ class NoYieldConnection(_Queued):
             if self._error:
                 error, self._error = self._error, None
                 raise error
+            if self.handed - self.dropped - self.sent <= 0:
+                self.busy_since = time.monotonic()
             self.handed += 1
             times = self.times
             if self._queue_size > 0 and len(self._queue) >= self._queue_size:
@@ -264,22 +269,20 @@ def unsent():
 def wait_sent(stall=0.2):
     """Block until every message handed to a remote subscriber's connection is written to
     its socket (so it is in the subscriber's receive queue, where the testing instance's
-    evidence that an app has answered looks), or until ``stall`` s of wall time pass
-    without a single write (a subscriber that stopped reading: its socket is full, its
-    writer blocked; the appwatch names that app). True: all written."""
-    last, deadline = None, None
+    evidence that an app has answered looks). A connection that has had messages to write
+    and written none for ``stall`` s of wall time (a subscriber that stopped reading: its
+    socket is full, its writer blocked) is not waited for, now or at later calls until it
+    writes again: a stalled rviz or rostopic costs one ``stall``, not one per step; the
+    appwatch names a stalled app. True: every message is written."""
     with _sent:
         while True:
-            conns = list(_connections)
-            if not any(c.unsent() for c in conns):
-                return True
-            mark = sum(c.sent for c in conns)
+            conns = [c for c in list(_connections) if c.unsent()]
             now = time.monotonic()
-            if mark != last:
-                last, deadline = mark, now + stall
-            if now >= deadline:
-                return False
-            _sent.wait(deadline - now)
+            moving = [max(c.last_write, c.busy_since) + stall for c in conns]
+            moving = [t for t in moving if t > now]
+            if not moving:
+                return not conns
+            _sent.wait(min(moving) - now)
 
 
 def deliver_inline(callback, on=True):

@@ -29,6 +29,8 @@ for line in sys.stdin:
             log.write('%%d %%s %%s\n' %% (os.getpid(), 'prepare' if job.get('prepare')
                                           else 'run', job['argv'][0]))
     if job.get('prepare'):          # a spare worker launches the world of argv
+        if what.startswith('x'):    # a world whose launch kills the worker
+            os._exit(7)
         print(json.dumps({'id': job['id'], 'exit': 0}), flush=True)
         continue
     print(json.dumps({'id': job['id'], 'line': 'worker %%d runs %%s' %% (os.getpid(), what)}),
@@ -340,3 +342,25 @@ def test_pick_gives_a_world_with_many_scenarios_a_second_worker():
     assert warm._pick(w2, pending, [w1, w2])[1] == 'a0'
     pending = [(0, 'b0', 'B'), (1, 'a0', 'A')]
     assert warm._pick(w2, pending, [w1, w2])[1] == 'b0'     # 1/1 beats 1/2
+
+
+def test_a_world_a_spare_could_not_launch_is_not_tried_ahead_again(fake_python, monkeypatch,
+                                                                   tmp_path):
+    """The spare dies launching world x: x's scenarios still run (x1 may have been dealt
+    to the spare before its death was seen: then it is the ERROR of a dying worker, as it
+    would be had it started there), and no more spares are spent on x."""
+    log = tmp_path / 'workers.log'
+    monkeypatch.setenv('FAKE_WORKER_LOG', str(log))
+    monkeypatch.setattr(warm, '_key_of', lambda argv: 'world-' + argv[0][0])
+    got = []
+    names = ['a1', 'a2', 'a3', 'x1', 'x2']
+    warm.Pool(1, python=fake_python, spare=True).run([(n, [n]) for n in names],
+                                                     lambda *r: got.append(r))
+    assert sorted(t for t, _rc, _x, _w in got) == names
+    rows = [ln.split() for ln in log.read_text().splitlines()]
+    assert [n for _p, w, n in rows if w == 'prepare'] == ['x1']     # tried once
+    by = {t: (rc, x) for t, rc, x, _w in got}
+    assert by['x2'][0] == 1 and 'PASS x: x2' in by['x2'][1]
+    assert by['x1'] == (2, 'ERROR the warm worker died (exit code 7)\n') or \
+        (by['x1'][0] == 1 and 'PASS x: x1' in by['x1'][1])
+    assert [n for _p, w, n in rows if w == 'run'][:3] == ['a1', 'a2', 'a3']

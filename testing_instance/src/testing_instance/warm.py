@@ -488,6 +488,7 @@ class Pool(object):
         self.python = python or sys.executable
         self.dir = tempfile.mkdtemp(prefix='warm_pool_')
         self.started = 0          # workers started (a dead one is replaced)
+        self.unready = set()      # worlds a spare failed to launch (not tried ahead again)
 
     def run(self, items, done):
         try:
@@ -528,6 +529,8 @@ class Pool(object):
                 except queue.Empty:
                     continue
                 if msg is None:                           # the worker's output ended
+                    if w.prep is not None:
+                        self.unready.add(w.key)  # not launched ahead again (_deal)
                     w.prep = None
                     if w.job is not None:
                         (_i, (tag, _argv)), t0, lines = w.job, w.t0, w.lines
@@ -539,8 +542,10 @@ class Pool(object):
                              time.monotonic() - t0)
                     continue
                 if w.prep is not None and msg.get('id') == w.prep and 'exit' in msg:
-                    w.prep = None                # its world is ready (or it will say why not
-                    continue                     # when a scenario of that world runs there)
+                    if msg['exit']:              # it will say why when a scenario of that
+                        self.unready.add(w.key)  # world runs there; not launched ahead again
+                    w.prep = None
+                    continue
                 if w.job is None or msg.get('id') != w.job[0]:
                     continue
                 if 'line' in msg:
@@ -581,7 +586,7 @@ class Pool(object):
             w.give(*_pick(w, pending, workers))
         if not self.spare or not all(w.running for w in workers if w.job is not None):
             return                       # the spare starts while the others run, not start
-        held = {w.key for w in workers if w.alive()}
+        held = {w.key for w in workers if w.alive()} | self.unready
         nxt = next(((i, item, k) for i, item, k in pending if k is not None and k not in held),
                    None)
         if nxt is None:

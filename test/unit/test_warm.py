@@ -364,3 +364,24 @@ def test_a_world_a_spare_could_not_launch_is_not_tried_ahead_again(fake_python, 
     assert by['x1'] == (2, 'ERROR the warm worker died (exit code 7)\n') or \
         (by['x1'][0] == 1 and 'PASS x: x1' in by['x1'][1])
     assert [n for _p, w, n in rows if w == 'run'][:3] == ['a1', 'a2', 'a3']
+
+
+def test_a_worker_dead_before_its_job_is_written_costs_that_job_only(tmp_path,
+                                                                    monkeypatch):
+    """Writing a job to a worker that has just died (a broken pipe) must not stop the farm:
+    the job is the ERROR of a dying worker."""
+    import time as _t
+    p = tmp_path / 'dead_worker'
+    p.write_text('#!%s\nimport sys\nsys.stdin.close()\nsys.exit(3)\n' % sys.executable)
+    p.chmod(p.stat().st_mode | stat.S_IEXEC)
+    send = warm._Worker._send
+
+    def late(self, obj):                 # the worker is gone by the time its job is written
+        self.p.wait(10)
+        _t.sleep(0.1)
+        send(self, obj)
+    monkeypatch.setattr(warm._Worker, '_send', late)
+    got = []
+    warm.Pool(1, python=str(p), spare=False).run([('a', ['a'])], lambda *r: got.append(r))
+    assert [(t, rc) for t, rc, _x, _w in got] == [('a', 2)]
+    assert 'ERROR the warm worker died (exit code 3)' in got[0][2]

@@ -635,14 +635,19 @@ class _Worker(object):
         self.running = False
         if key is not None:
             self.key = key
-        self.p.stdin.write(json.dumps({'id': i, 'argv': list(item[1])}) + '\n')
-        self.p.stdin.flush()
+        self._send({'id': i, 'argv': list(item[1])})
 
     def prepare(self, i, argv, key):
         """Launch the world of command line ``argv`` now, to run its scenarios later."""
         self.prep, self.key = i, key
-        self.p.stdin.write(json.dumps({'id': i, 'argv': list(argv), 'prepare': True}) + '\n')
-        self.p.stdin.flush()
+        self._send({'id': i, 'argv': list(argv), 'prepare': True})
+
+    def _send(self, obj):
+        try:
+            self.p.stdin.write(json.dumps(obj) + '\n')
+            self.p.stdin.flush()
+        except OSError:
+            pass        # it died just now: its output ends, and the pool says so (_run_warm)
 
     def close(self):
         try:

@@ -188,3 +188,41 @@ def test_tcp_queues_reads_what_proc_net_tcp_says():
     finally:
         for s in (c, a, lst):
             s.close()
+
+
+@pytest.mark.skipif(procs._FUTEX is None, reason='futex syscall number unknown here')
+def test_receivers_busy_names_a_receive_thread_not_waiting_for_bytes():
+    """A rospy receive thread (named after its topic) that has taken bytes off its socket
+    and waits for the GIL or a lock, or runs, holds a message: the runner has not got it
+    yet. One waiting in recv holds nothing."""
+    import threading
+    a, b = socket.socketpair()
+    lock = threading.Lock()
+    lock.acquire()
+    stop = threading.Event()
+    idle = threading.Thread(target=lambda: a.recv(1), name='/idle_topic', daemon=True)
+    locked = threading.Thread(target=lambda: (lock.acquire(), lock.release()),
+                              name='/locked_topic', daemon=True)
+
+    def spin():
+        while not stop.is_set():
+            pass
+    spinning = threading.Thread(target=spin, name='/spinning_topic', daemon=True)
+    other = threading.Thread(target=lambda: (lock.acquire(), lock.release()),
+                             name='not a topic', daemon=True)
+    for t in (idle, locked, spinning, other):
+        t.start()
+    try:
+        time.sleep(0.2)
+        busy = procs.receivers_busy()
+        assert '/locked_topic' in busy and '/spinning_topic' in busy
+        assert '/idle_topic' not in busy and 'not a topic' not in busy
+    finally:
+        stop.set()
+        lock.release()
+        b.send(b'x')
+        for t in (idle, locked, spinning, other):
+            t.join(5)
+        a.close()
+        b.close()
+    assert procs.receivers_busy() == []

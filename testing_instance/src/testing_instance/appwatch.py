@@ -8,8 +8,12 @@ message its subscriptions deserialised has reached the inbox: ``own_pending``). 
 checks that after each slice (``wait``), woken by every message that arrives. The world
 answers a step only once every message of the slice is written to its subscribers'
 sockets (sim_world.fastpub.wait_sent): a message still in the world's queue for an app
-would look like an idle app with nothing to read. The queues are read through netlink
-(procs.tcp_queues), fast enough that without that wait the runner did look first.
+would look like an idle app with nothing to read. And the runner's own receive threads
+(an embedded world's too) must all be waiting for bytes (procs.receivers_busy): one that
+has taken an app's message off its socket but waits for the GIL before handing it on
+leaves no trace in any queue. The queues are read through netlink (procs.tcp_queues),
+fast enough that without that check the runner did look first: auto_rotate's landscape
+answer was recorded a slice late in 1 run of 8, and in none of 25 with it.
 
 The same readings tell a hung app: a connection of it has had unread bytes at every look
 for ``hang_after`` s of wall time, or every one of its threads is stopped (SIGSTOP). That is an error naming the app (``AppHung``). An app that never falls idle (it

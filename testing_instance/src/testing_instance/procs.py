@@ -1,5 +1,6 @@
 """Child processes of a run (roscore, the world, the scenario's apps) and port allocation."""
 import os
+import platform
 import signal
 import socket
 import struct
@@ -11,7 +12,7 @@ from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exporte
 
 __all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
            'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
-           'tcp_queues', 'thread_states']
+           'receivers_busy', 'tcp_queues', 'thread_states']
 
 
 def ros_env(log_dir, port=None):
@@ -255,6 +256,33 @@ def socket_inodes(pid):
             continue
         if link.startswith('socket:['):
             out.add(int(link[8:-1]))
+    return out
+
+
+# the futex syscall's number (a thread waiting for a lock: the GIL), per architecture
+_FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machine())
+
+
+def receivers_busy():
+    """Names of this process's rospy subscriber connection threads (rospy names each after
+    its topic) that are running or waiting for a lock (/proc/self/task/TID/syscall). An idle
+    one waits in the kernel for bytes; one that has taken a message's bytes off its socket
+    (the socket's queue is empty again) and has not yet handed the message to its callbacks
+    is running or, behind the GIL, waiting on a futex. [] where the futex syscall's number
+    is not known (another architecture)."""
+    if _FUTEX is None:
+        return []
+    out = []
+    for th in threading.enumerate():
+        if not th.name.startswith('/') or not getattr(th, 'native_id', None):
+            continue
+        try:
+            with open('/proc/self/task/%d/syscall' % th.native_id) as f:
+                call = f.read().split(None, 1)[0]
+        except (OSError, IndexError):
+            continue                                  # it ended just now
+        if call in ('running', _FUTEX):
+            out.append(th.name)
     return out
 
 

@@ -731,6 +731,11 @@ class Runner(Actions):
         for pid in pids:
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
                 return 'bytes waiting on a socket of pid %d' % pid
+        # a message off its socket, not yet through its callbacks: a receive thread of this
+        # process (the runner's subscriptions; an embedded world's too) behind the GIL
+        busy = procs.receivers_busy()
+        if busy:
+            return 'receiving %s' % busy[0]
         return None
 
     def _drain(self):

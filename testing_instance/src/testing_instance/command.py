@@ -116,11 +116,8 @@ def prepare_argv(argv, warm):
     worker launches the next world while another worker runs)."""
     from . import procs
     from .runner import Runner
-    from .scenario import load
     procs.first_run()      # its first scenario's start-up counts from its job, not from here
-    a = parser('run_scenario').parse_args(list(argv))
-    path = expand(a.files)[0]
-    sc = load(path, values=values_of(a, path))
+    a, sc = _scenario_of(argv)
     r = Runner(sc, seed=a.seed, real_time_factor=a.rtf, report=a.report, warm=warm,
                out=lambda s: None)
     try:
@@ -144,7 +141,14 @@ def run_one(a, path, out=None, **kw):
 def world_key_of(argv):
     """The world (testing_instance.runner.world_key) a run_scenario command line needs."""
     from .runner import world_key
+    a, sc = _scenario_of(argv)
+    return world_key(sc, a.report)
+
+
+def _scenario_of(argv):
+    """The parsed arguments of a run_scenario command line and its (first) scenario,
+    loaded with its --set values."""
     from .scenario import load
     a = parser('run_scenario').parse_args(list(argv))
     path = expand(a.files)[0]
-    return world_key(load(path, values=values_of(a, path)), a.report)
+    return a, load(path, values=values_of(a, path))

@@ -123,3 +123,50 @@ def test_a_long_recording_does_not_grow_the_writer(tmp_path):
     ts = [t.to_sec() for _tp, _m, t in r.read_messages()]
     r.close()
     assert len(ts) == 45000 and ts == sorted(ts) and abs(ts[-1] - (1 + 44999 * 0.001)) < 1e-6
+
+
+def test_the_runners_bag_is_rosbags_bytes_without_a_seek_per_message(tmp_path):
+    """The runner's rosbag writer follows its own position in the file (_KnownPosition):
+    the file it writes is byte for byte what rosbag.Bag writes (several chunks, the index,
+    the header rewritten at close), and the file object sees a seek or a position question
+    only at chunk boundaries, not two or three per message (each one a system call)."""
+    import rosbag
+    from sensor_msgs.msg import Imu
+    from testing_instance.mcap_io import _lean_bag_class
+
+    class Counting(object):
+        def __init__(self, f):
+            self.f, self.calls = f, 0
+
+        def seek(self, *a):
+            self.calls += 1
+            return self.f.seek(*a)
+
+        def tell(self):
+            self.calls += 1
+            return self.f.tell()
+
+        def __getattr__(self, name):
+            return getattr(self.f, name)
+
+    def write(bag, n=6000):
+        for i in range(n):
+            m = Imu()
+            m.header.stamp = rospy.Time(1 + i // 100, (i % 100) * 10_000_000)
+            m.header.frame_id = 'imu'
+            m.linear_acceleration.z = 9.81 + 1e-4 * i
+            bag.write('/mobile_device/imu_sensor_data' if i % 3 else '/other', m,
+                      m.header.stamp)
+        bag.close()
+
+    plain, lean = str(tmp_path / 'plain.bag'), str(tmp_path / 'lean.bag')
+    write(rosbag.Bag(plain, 'w'))
+    b = _lean_bag_class()(lean, 'w')
+    counting = Counting(b._file._f)
+    b._file._f = counting
+    write(b)
+    with open(plain, 'rb') as f1, open(lean, 'rb') as f2:
+        one, two = f1.read(), f2.read()
+    assert len(one) > 2 * 768 * 1024                     # more than two chunks
+    assert one == two
+    assert counting.calls < 40, counting.calls           # not 3 x 6000

@@ -225,6 +225,10 @@ class GazeboRosApi(object):
         if not math.isfinite(until):
             return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
                                      % until, self.world.sim_time, [], [], [])
+        with self.world.lock:
+            # a camera subscribed since the last step makes the renderer now, outside the
+            # step: the runner's step to the current time before its timeline does it
+            self.world.prepare_renderer()
         self.step_done.clear()
         self.step_until = until
         self.paused = False

@@ -14,6 +14,7 @@ already set. Besides the Gazebo API (sim_world.gazebo_api) it serves /gazebo/set
 /gazebo/environment and /gazebo/set_sensor_fault (sim_world.world_services).
 """
 import gc
+import importlib
 import math
 import os
 import sys
@@ -118,6 +119,24 @@ def host_from_params(argv=()):
 POSE_KEYS = ('x', 'y', 'z', 'R', 'P', 'Y')
 
 
+def _preload_renderer(world, model):
+    """A model that can draw (a camera) was added: import the renderer's modules (OpenCV:
+    0.2 s) in the background, while the node waits for its first step; the renderer itself
+    is made before the first step that needs it (World.prepare_renderer)."""
+    from .plugins import Plugin
+    if 'sim_world.render' in sys.modules or _PRELOAD:
+        return
+    if any(type(p).will_draw is not Plugin.will_draw
+           for p in world.plugins.get(model.name, ())):
+        _PRELOAD.append(threading.Thread(target=importlib.import_module,
+                                         args=('sim_world.render',), daemon=True,
+                                         name='preload renderer'))
+        _PRELOAD[0].start()
+
+
+_PRELOAD = []
+
+
 class WorldHost(object):
     """The node's World, the ROS API serving it and the loop stepping it. On
     /gazebo/reload_world (mobile_device_sim/ReloadWorld) it starts the world over in this
@@ -144,6 +163,7 @@ class WorldHost(object):
     def build(self, seed):
         world = World(physics=self.engine, step_size=self.step, gravity=self.gravity,
                       ros_enabled=True, seed=seed, logger=_RospyLogger())
+        world.on_model_added.append(lambda model: _preload_renderer(world, model))
         world.load_world_file(self.world_file)
         return world
 

@@ -227,6 +227,24 @@ class World(object):
         for name in self.models:
             self._renderer.set_link_poses(name, self.link_poses(name))
 
+    def prepare_renderer(self):
+        """Create the renderer now if a plugin will draw at its next tick (a camera with a
+        subscriber), so that the GL context, the imports and the upload of the models'
+        meshes (about 0.3 s) happen before a run's first step, as Gazebo loads its
+        rendering with its sensors, and not inside the first frame's tick. True when the
+        world has a renderer after the call."""
+        if self._renderer is None:
+            for ps in self.plugins.values():
+                for p in ps:
+                    try:
+                        draws = p.will_draw()
+                    except Exception:  # noqa: BLE001 - then its tick creates it, as before
+                        draws = False
+                    if draws:
+                        self.renderer
+                        return True
+        return self._renderer is not None
+
     @property
     def renderer_if_created(self):
         """The renderer if a camera made one, else None (plugins that only change what

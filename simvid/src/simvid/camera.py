@@ -242,6 +242,9 @@ class CameraPlugin(Plugin):
                 self._error('%s: set_hfov ignored: %s' % (self.label, e))
 
     # -- frames ------------------------------------------------------------------------------
+    def will_draw(self):
+        return bool(self.wanted()[0])
+
     def wanted(self):
         """(anything wanted, depth wanted) by subscribers: the image, camera_info, points or
         (depth cameras) the depth image or its info."""

@@ -922,6 +922,10 @@ class Runner(Actions):
 
         def plan():          # roslaunch's loader (xacro) runs while the master starts
             self.launch_plan = plan_launch(path, args, self.port)
+            if self.launch_plan.world is not None:
+                # and the renderer's imports (OpenCV: 0.2 s), which the world's first
+                # step_world needs when a camera has a subscriber (World.prepare_renderer)
+                import sim_world.render  # noqa: F401
         m = self._start_master(self._start_roscore, deadline, meanwhile=plan)
         if self.launch_plan.world is None:
             if self.embed_required:

@@ -188,6 +188,12 @@ class Plugin(object):
     def update(self, sim_time):
         pass
 
+    def will_draw(self):
+        """True when this plugin will render a frame at its next tick (a camera somebody
+        subscribes to): the world then creates its renderer ahead, before the sim time it
+        is stepped to (World.prepare_renderer), not inside the first frame's tick."""
+        return False
+
     def renderer_created(self, renderer):
         """Called once when the world creates its renderer (the first camera that renders),
         before that camera's first frame."""

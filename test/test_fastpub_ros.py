@@ -176,3 +176,58 @@ def test_local_objects_remote_bytes_and_cleanup(roscore):
     assert res['mixed_times'] == [0.0, 0.5, 1.0, 1.5, 2.0]   # the sim time at hand-over
     got = json.loads(rout.strip().splitlines()[-1])
     assert got == [['f%d' % i, [i, 1, 2, 3]] for i in range(40)], rerr[-2000:]
+
+
+LOCAL_ONLY = textwrap.dedent('''
+    import json, sys, time
+    sys.path.insert(0, %(src)r)
+    import rospy
+    import rospy.topics
+    from sensor_msgs.msg import Imu
+    from sim_world import fastpub
+    serialized = []
+    real = rospy.topics.serialize_message
+    def counting(b, seq, msg):
+        serialized.append(seq)
+        return real(b, seq, msg)
+    rospy.topics.serialize_message = counting
+    rospy.init_node('fastpub_local_only', disable_signals=True)
+    pub = fastpub.publisher('/local_only', Imu, queue_size=50)
+    got = []
+    sub = rospy.Subscriber('/local_only', Imu, lambda m: got.append(m), queue_size=100)
+    deadline = time.time() + 30
+    while pub.get_num_connections() < 1 and time.time() < deadline:
+        time.sleep(0.05)
+    sent = []
+    for i in range(20):
+        m = Imu()
+        m.header.frame_id = None if i %% 2 else 'imu'
+        sent.append(m)
+        pub.publish(m)
+    deadline = time.time() + 10
+    while len(got) < 20 and time.time() < deadline:
+        time.sleep(0.05)
+    print(json.dumps(dict(serialized=len(serialized), got=len(got),
+                          same=sum(1 for a, b in zip(sent, got) if a is b),
+                          seq=[m.header.seq for m in got],
+                          frames=[m.header.frame_id for m in got],
+                          counts=fastpub.handed_to(rospy.get_caller_id()))), flush=True)
+''')
+
+
+def test_a_topic_only_this_node_subscribes_is_not_serialized(roscore):
+    """Messages only this node's own subscribers get (an embedded world's runner) are
+    handed over without rospy serializing them for its loopback connection, and carry
+    the header rospy's publish would have given them: the topic's sequence number, and
+    '0' for a frame_id of None (recordings the same as through the world node)."""
+    p = subprocess.run([sys.executable, '-c',
+                        LOCAL_ONLY % dict(src=os.path.join(ROOT, 'sim_world', 'src'))],
+                       env=roscore, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr[-3000:]
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    assert res['got'] == 20 and res['same'] == 20
+    assert res['serialized'] == 0
+    assert res['seq'] == list(range(1, 21))
+    assert res['frames'] == ['imu', '0'] * 10
+    assert res['counts']['/local_only'] == [20, 0]

@@ -297,6 +297,40 @@ def deliver_inline(callback, on=True):
         _inline_callbacks.discard(callback)
 
 
+def _only_local(impl, topic):
+    """True when every connection of the publisher ``impl`` is to a live subscriber in this
+    node (an embedded world's runner, rospy's own /clock subscriber): then rospy would
+    serialize each message only for :class:`_LocalConnection` to drop the bytes."""
+    conns = impl.connections
+    if not conns or impl.closed:
+        return False
+    for c in conns:
+        if type(c) is not _LocalConnection:
+            return False
+    return _subscriber_impl(topic) is not None
+
+
+def _number(impl, msg):
+    """What rospy's publish does to a message besides sending its bytes, for a message
+    only this node's subscribers get: the topic's sequence number in its header (and a
+    frame_id of None made '0'), under the publisher's lock, so that a recording holds the
+    same header as when the message went through rospy (rospy.msg.serialize_message).
+    False: the topic closed meanwhile (rospy's own publish says how)."""
+    impl.acquire()
+    try:
+        if impl.closed:
+            return False
+        impl.seq += 1
+        if getattr(msg.__class__, '_has_header', False):
+            h = msg.header
+            h.seq = impl.seq
+            if h.frame_id is None:
+                h.frame_id = '0'
+        return True
+    finally:
+        impl.release()
+
+
 def no_yield(pub, inline_local=False):
     """Make ``pub`` (a rospy.Publisher created with a queue_size) queue its messages
     through NoYieldConnection for every remote subscriber that connects from now on, and
@@ -332,6 +366,12 @@ def no_yield(pub, inline_local=False):
         orig_publish = pub.publish
 
         def publish(*args, **kwds):
+            if _only_local(impl, topic):
+                msg = args[0] if len(args) == 1 and not kwds and \
+                    isinstance(args[0], pub.data_class) else None
+                if msg is not None and _number(impl, msg):
+                    local.put(msg)
+                    return
             orig_publish(*args, **kwds)
             if any(isinstance(c, _LocalConnection) for c in impl.connections):
                 if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):

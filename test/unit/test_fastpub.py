@@ -224,3 +224,110 @@ def test_wait_sent_returns_once_the_writer_wrote_every_message():
             c._cond_data_available.notify()
     c.write_data(b'late')                        # a closed connection holds nothing
     assert c.unsent() == 0
+
+
+class SocketTransport(object):
+    """What QueuedConnection wraps, over a real socket: rospy's write_data (sendall and the
+    statistics); ``gate`` holds the writer thread's writes until set."""
+
+    def __init__(self, sock):
+        self.socket = sock
+        self.done = False
+        self.endpoint_id = '/app'
+        self.stat_bytes = self.stat_num_msg = 0
+        self.writer_calls = 0
+        self.lengths = []
+        self.gate = threading.Event()
+        self.gate.set()
+
+    def set_cleanup_callback(self, cb):
+        pass
+
+    def write_data(self, data):
+        self.writer_calls += 1
+        self.lengths.append(len(data))
+        self.gate.wait(10)
+        self.socket.sendall(data)
+        self.stat_bytes += len(data)
+        self.stat_num_msg += 1
+        return True
+
+
+def _close(c, t):
+    t.gate.set()
+    t.done = True
+    with c._lock:
+        c._cond_data_available.notify()
+
+
+def _read(sock, n, timeout=10):
+    sock.settimeout(timeout)
+    out = b''
+    while len(out) < n:
+        chunk = sock.recv(n - len(out))
+        assert chunk, 'closed after %d of %d bytes' % (len(out), n)
+        out += chunk
+    return out
+
+
+def test_a_message_the_socket_takes_whole_is_sent_without_the_writer_thread():
+    """The publishing thread writes a message straight to an idle connection's socket
+    (non-blocking): no writer thread wakes for it, and it counts as sent at once."""
+    import socket
+    a, b = socket.socketpair()
+    t = SocketTransport(a)
+    c = fastpub.NoYieldConnection(t, 10)
+    try:
+        msgs = [b'%04d' % i * 10 for i in range(50)]
+        for m in msgs:
+            assert c.write_data(m) is True
+        assert c.sent == 50 and c.unsent() == 0 and fastpub.wait_sent(stall=1.0) is True
+        assert t.writer_calls == 0 and t.stat_num_msg == 50 and t.stat_bytes == 2000
+        assert _read(b, 2000) == b''.join(msgs)
+        fastpub._DIRECT[0] = False                    # the writer thread's way, to compare
+        try:
+            c.write_data(b'queued')
+            assert fastpub.wait_sent(stall=1.0) is True
+        finally:
+            fastpub._DIRECT[0] = True
+        assert t.writer_calls == 1 and _read(b, 6) == b'queued'
+    finally:
+        _close(c, t)
+        a.close()
+        b.close()
+
+
+def test_a_message_begun_directly_is_finished_by_the_writer_and_never_dropped():
+    """When the socket takes only part of a message, the writer thread sends the rest
+    before anything else; while it has data, later messages queue behind it (order kept)
+    and a full queue drops the oldest whole message, never the one begun: the subscriber
+    reads whole messages, as rospy's queue would have given them."""
+    import socket
+    a, b = socket.socketpair()
+    a.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
+    b.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    t = SocketTransport(a)
+    t.gate.clear()                               # the writer thread cannot write yet
+    c = fastpub.NoYieldConnection(t, 2)
+    try:
+        big = bytes(range(256)) * 4096           # 1 MiB: more than the socket takes
+        c.write_data(big)
+        assert c.sent == 0 and c.unsent() == 1
+        for i in range(5):                       # a queue of 2 behind the rest of ``big``
+            c.write_data(b'small%d' % i)
+        assert c.handed == 6 and c.dropped >= 2
+        t.gate.set()
+        kept = 5 - c.dropped
+        got = _read(b, len(big) + 6 * kept)
+        assert fastpub.wait_sent(stall=2.0) is True and c.unsent() == 0
+        assert 0 < t.lengths[0] < len(big)       # the writer sent only the rest of it
+        assert got[:len(big)] == big             # whole, then whole small ones in order,
+        smalls = [got[len(big) + 6 * i:len(big) + 6 * (i + 1)] for i in range(kept)]
+        assert smalls == sorted(smalls) and smalls[-1] == b'small4'     # the newest kept
+        assert len(set(smalls)) == kept and all(m.startswith(b'small') for m in smalls)
+        c.write_data(b'after')                   # idle again: straight to the socket
+        assert _read(b, 5) == b'after'
+    finally:
+        _close(c, t)
+        a.close()
+        b.close()

@@ -86,3 +86,48 @@ def test_a_farm_run_gets_the_options_that_apply_to_each_run(tmp_path):
     b = _parser('run_scenario').parse_args(argv)
     assert b.set == ['heading=30', 'seed=4'] and b.world_node and b.seed == 3
     assert farm_argv('y.yaml', _parser('run_scenario').parse_args(['y.yaml'])) == ['y.yaml']
+
+
+def test_the_world_side_of_the_subscriptions_is_awaited_in_a_namespace(monkeypatch):
+    """Before its timeline the runner waits until the world's publishers count it as a
+    subscriber (a connection still being accepted would cost the first message in one run
+    and not another). The world node is the one serving step_world, /lab/sim_world in a
+    namespace: that node is asked, not a /sim_world that is not there."""
+    import rosgraph
+    import xmlrpc.client
+    from testing_instance.runner import Runner
+    asked, calls = [], []
+
+    class Master(object):
+        def __init__(self, *a, **k):
+            pass
+
+        def getSystemState(self):
+            return ([('/mobile_device/camera_info', ['/lab/sim_world']),
+                     ('/lab/imu', ['/lab/sim_world'])], [], [])
+
+        def lookupNode(self, name):
+            asked.append(name)
+            if name != '/lab/sim_world':
+                raise rosgraph.MasterError('unknown node [%s]' % name)
+            return 'http://localhost:1/'
+
+    class Proxy(object):
+        def __init__(self, uri):
+            pass
+
+        def getBusInfo(self, me):
+            calls.append(me)
+            out = [[1, '/runner', 'o', 'TCPROS', '/lab/imu', True]]
+            if len(calls) >= 3:             # the camera_info connection, accepted later
+                out.append([2, '/runner', 'o', 'TCPROS', '/mobile_device/camera_info', True])
+            return [1, '', out]
+    monkeypatch.setattr(rosgraph, 'Master', Master)
+    monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
+    r = Runner.__new__(Runner)
+    r.world_node = '/lab/sim_world'
+    r.rospy = type('R', (), {'get_name': staticmethod(lambda: '/runner')})
+    import time
+    r._wait_publisher_side(['/mobile_device/camera_info', '/lab/imu'], time.monotonic() + 5)
+    assert asked == ['/lab/sim_world']
+    assert len(calls) == 3                  # waited until both were accepted

@@ -587,12 +587,13 @@ class Runner(Actions):
         from xmlrpc.client import ServerProxy
         master = rosgraph.Master('/scenario_runner')
         me = self.rospy.get_name()
+        world = self.world_node or '/sim_world'     # /lab/sim_world in a namespace
         try:
             pubs, _subs, _srv = master.getSystemState()
-            node_uri = master.lookupNode('/sim_world')
+            node_uri = master.lookupNode(world)
         except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
             return
-        want = {t for t, ns in pubs if '/sim_world' in ns and t in topics}
+        want = {t for t, ns in pubs if world in ns and t in topics}
         while want and time.monotonic() < deadline:
             try:
                 _c, _m, info = ServerProxy(node_uri).getBusInfo(me)

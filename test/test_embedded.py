@@ -195,3 +195,8 @@ def test_a_namespaced_and_remapped_world_node_is_embedded_as_it_is_launched(tmp_
     assert sorted(e) == sorted(n)
     for topic in n:
         assert e[topic] == n[topic], '%s differs embedded and not' % topic
+    import json
+    import rosbag
+    with rosbag.Bag(str(tmp_path / 'node.bag')) as b:       # what a replay feeds back
+        meta = [json.loads(m.data) for _t, m, _s in b.read_messages(['/scenario/meta'])]
+    assert '/lab/imu' in meta[0]['inputs'], meta

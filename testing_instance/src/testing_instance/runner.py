@@ -1043,7 +1043,8 @@ class Runner(Actions):
         from std_msgs.msg import String
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
         own = self._own_topics()         # an embedded world's node is ours too
-        inputs = sorted(t for t, nodes in pubs if t in self.subs and '/sim_world' in nodes
+        world = self.world_node or '/sim_world'     # /lab/sim_world in a namespace
+        inputs = sorted(t for t, nodes in pubs if t in self.subs and world in nodes
                         and t not in own)
         if '/gazebo/environment' not in inputs:
             inputs.append('/gazebo/environment')

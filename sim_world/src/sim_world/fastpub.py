@@ -437,21 +437,21 @@ def no_yield(pub, inline_local=False):
     if local is not None:
         orig_publish = pub.publish
 
+        def message(args, kwds):
+            if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):
+                return args[0]
+            from rospy.msg import args_kwds_to_message
+            return args_kwds_to_message(pub.data_class, args, kwds)
+
         def publish(*args, **kwds):
             if _only_local(impl, topic):
-                msg = args[0] if len(args) == 1 and not kwds and \
-                    isinstance(args[0], pub.data_class) else None
-                if msg is not None and _number(impl, msg):
+                msg = message(args, kwds)
+                if _number(impl, msg):
                     local.put(msg)
                     return
             orig_publish(*args, **kwds)
             if any(isinstance(c, _LocalConnection) for c in impl.connections):
-                if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):
-                    msg = args[0]
-                else:
-                    from rospy.msg import args_kwds_to_message
-                    msg = args_kwds_to_message(pub.data_class, args, kwds)
-                local.put(msg)
+                local.put(message(args, kwds))
         pub.publish = publish
         pub.local_delivery = local
         orig_unregister = pub.unregister

@@ -579,6 +579,11 @@ class Runner(Actions):
         return any(isinstance(ev['when'], dict) and ev['when'].get('topic') not in self.subs
                    for ev in self.pending_conditions() if 'topic' in ev['when'])
 
+    def _world_name(self):
+        """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
+        namespace), else the default /sim_world."""
+        return self.world_node or '/sim_world'
+
     def _wait_publisher_side(self, topics, deadline):
         """Wait until the world's publishers count this node as a subscriber: a sensor
         publishes only while subscribed, so a connection still being accepted on the world's
@@ -587,7 +592,7 @@ class Runner(Actions):
         from xmlrpc.client import ServerProxy
         master = rosgraph.Master('/scenario_runner')
         me = self.rospy.get_name()
-        world = self.world_node or '/sim_world'     # /lab/sim_world in a namespace
+        world = self._world_name()
         try:
             pubs, _subs, _srv = master.getSystemState()
             node_uri = master.lookupNode(world)
@@ -1043,7 +1048,7 @@ class Runner(Actions):
         from std_msgs.msg import String
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
         own = self._own_topics()         # an embedded world's node is ours too
-        world = self.world_node or '/sim_world'     # /lab/sim_world in a namespace
+        world = self._world_name()
         inputs = sorted(t for t, nodes in pubs if t in self.subs and world in nodes
                         and t not in own)
         if '/gazebo/environment' not in inputs:

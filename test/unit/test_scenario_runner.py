@@ -95,7 +95,9 @@ def test_the_world_side_of_the_subscriptions_is_awaited_in_a_namespace(monkeypat
     namespace: that node is asked, not a /sim_world that is not there."""
     import rosgraph
     import xmlrpc.client
-    from testing_instance.runner import Runner
+    from testing_instance.inbox import Inbox
+    from testing_instance.intake import Intake
+    from testing_instance.recording import Recorder
     asked, calls = [], []
 
     class Master(object):
@@ -124,10 +126,10 @@ def test_the_world_side_of_the_subscriptions_is_awaited_in_a_namespace(monkeypat
             return [1, '', out]
     monkeypatch.setattr(rosgraph, 'Master', Master)
     monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
-    r = Runner.__new__(Runner)
+    r = Intake(Inbox(), Recorder())
     r.world_node = '/lab/sim_world'
-    r.rospy = type('R', (), {'get_name': staticmethod(lambda: '/runner')})
+    r.start(type('R', (), {'get_name': staticmethod(lambda: '/runner')}))
     import time
-    r._wait_publisher_side(['/mobile_device/camera_info', '/lab/imu'], time.monotonic() + 5)
+    r.wait_publisher_side(['/mobile_device/camera_info', '/lab/imu'], time.monotonic() + 5)
     assert asked == ['/lab/sim_world']
     assert len(calls) == 3                  # waited until both were accepted

@@ -101,7 +101,7 @@ class AppWatch(object):
         """[(name, why)] of the apps still working (not those given up on); raises
         AppHung for any app, given up on or not."""
         out = []
-        kids = procs._children_map()
+        kids = procs.children_map()
         now = self.clock()
         for name, p in self.apps:
             if not p.alive():

@@ -143,7 +143,8 @@ def kill_tree(proc):
 
 
 # -- what /proc says about a process tree (the runner's evidence about apps) ----------------
-def _children_map():
+def children_map():
+    """{pid: [child pids]} of every process (read from /proc)."""
     kids = {}
     for d in os.listdir('/proc'):
         if not d.isdigit():
@@ -159,7 +160,7 @@ def _children_map():
 
 def descendants(pid, kids=None):
     """pid and every process below it."""
-    kids = _children_map() if kids is None else kids
+    kids = children_map() if kids is None else kids
     out, todo = [], [pid]
     while todo:
         p = todo.pop()

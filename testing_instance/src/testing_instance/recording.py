@@ -1,5 +1,12 @@
-"""Names and readers of a run_scenario recording (rosbag): the meta and timeline topics."""
+"""The run's recording (``--record``): names of its meta and timeline topics, its reader of
+the meta, and the ``Recorder`` the runner writes through.
+
+A recording holds every message the runner subscribed to, at its sim time (the stamp, or
+the time the slice handshake gave an unstamped message), the timeline's events on
+``/scenario/events`` and one ``/scenario/meta`` message (seed, inputs, t0, duration,
+types) that a replay reads first."""
 import json
+import threading
 
 # not recorded unless named in `record:` or used by an expectation (each one makes the
 # renderer draw a frame per message)
@@ -7,7 +14,7 @@ HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/
 EVENTS_TOPIC = '/scenario/events'
 META_TOPIC = '/scenario/meta'
 
-__all__ = ['HEAVY_TYPES', 'EVENTS_TOPIC', 'META_TOPIC', 'read_meta']
+__all__ = ['HEAVY_TYPES', 'EVENTS_TOPIC', 'META_TOPIC', 'read_meta', 'Recorder']
 
 
 def read_meta(bag):
@@ -15,3 +22,55 @@ def read_meta(bag):
     for _topic, msg, _t in bag.read_messages(topics=[META_TOPIC]):
         return json.loads(msg.data)
     return None
+
+
+class Recorder(object):
+    """Writes the run's recording to every ``--record`` path (a rosbag, an MCAP file, or
+    both: mcap_io.GuardedWriter); records nothing until ``open``.
+
+    Thread-safe: the subscriber threads (or an embedded world's thread) write while the
+    loop writes events. A storage fault never raises: ``close`` returns one line per fault,
+    which the runner reports as the run's ERROR after its verdicts."""
+
+    def __init__(self):
+        self._writer = None
+        self._lock = threading.Lock()
+        self._time = None
+
+    @property
+    def active(self):
+        """Is a recording open (``--record`` given and not yet closed)?"""
+        return self._writer is not None
+
+    def open(self, paths):
+        """Start recording to ``paths``; mcap_io.RecordingError if a file cannot be made."""
+        from rospy import Time
+        from .mcap_io import GuardedWriter
+        self._time = Time.from_sec
+        self._writer = GuardedWriter(paths)
+
+    def write(self, topic, msg, t):
+        """``msg`` on ``topic`` at sim time ``t`` (s)."""
+        with self._lock:
+            if self._writer is not None:
+                self._writer.write(topic, msg, self._time(max(t, 1e-9)))
+
+    def event(self, t, text, **fields):
+        """A timeline event at sim time ``t``: a JSON object on EVENTS_TOPIC."""
+        if self._writer is not None:
+            self._json(EVENTS_TOPIC, dict(fields, t=round(t, 6), text=text), t)
+
+    def meta(self, meta, t):
+        """The run's meta (a dict) on META_TOPIC at sim time ``t``."""
+        if self._writer is not None:
+            self._json(META_TOPIC, meta, t)
+
+    def _json(self, topic, obj, t):
+        from std_msgs.msg import String
+        self.write(topic, String(json.dumps(obj, sort_keys=True)), t)
+
+    def close(self):
+        """Close every file; returns the storage faults' lines (empty: all written)."""
+        with self._lock:
+            w, self._writer = self._writer, None
+        return w.close() if w is not None else []

@@ -10,7 +10,6 @@ actions are not applied again (their effects are in the recorded inputs). Time a
 slices of the scenario's ``slice``; after each slice the runner waits until the apps'
 outputs have arrived, as in a live run.
 """
-import collections
 import json
 import math
 import re
@@ -158,11 +157,10 @@ def replay_run(r):
             for topic, cls in rec.types.items()}
     msgs = rec.msgs
     if r.record_path:
-        r.open_bag()
+        r.open_recording()
     r.t0 = r.t = float(meta.get('t0', 0.0))
     clock.publish(Clock(rospy.Time.from_sec(r.t)))
     r.start_apps()
-    r.topic_types = {}
     r.subscribe_all()
     # wait until every app that subscribes an input is connected to our publisher
     import rosgraph as rg
@@ -173,11 +171,10 @@ def replay_run(r):
             pubs[t].get_num_connections() < len(n) for t, n in want.items()):
         time.sleep(0.02)
     r.replay_meta = meta
-    if r.bag is not None:
-        r.write_meta()
+    r.write_meta()
     def publish(topic, m, t):
         if not getattr(m, '_has_header', True):   # timed by its recorded time (_time_held)
-            r.input_times.setdefault(topic, collections.deque()).append(t)
+            r.intake.input_at(topic, t)
         pubs[topic].publish(m)
     src = ReplayClock(msgs, publish,
                       lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
@@ -185,7 +182,7 @@ def replay_run(r):
     end = r.t0 + float(meta.get('duration', r.sc.duration))
     # unstamped messages: the recording's by their recorded times, the apps' at the end of
     # the slice, as live
-    r.input_node, r.hold_unstamped = rospy.get_name(), True
+    r.intake.input_node, r.intake.hold_unstamped = rospy.get_name(), True
     while True:
         r.check_world()
         r.t = src.step_to(min(end, r.t + r.sc.slice))

@@ -16,8 +16,6 @@ Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scen
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
 """
-import collections
-import json
 import math
 import os
 import shutil
@@ -31,12 +29,13 @@ from sim_world.netutil import wait_for_service
 
 from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
-from .appwatch import AppHung, AppWatch
+from .apps import Apps
 from .clock import WorldClock
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
 from .inbox import Inbox
+from .intake import Intake
 from .procs import Proc as _Proc, free_port, tail as _tail
-from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC
+from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC, Recorder  # noqa: F401
 from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
 from .timeline import Agenda, next_stop
@@ -83,11 +82,11 @@ class Runner(Actions):
         self.launch_procs = []     # embedded: the launch file's other nodes
         self.procs = []
         self.world_proc = None
-        self.inbox = Inbox()
-        self.subs = {}
-        self.topic_types = {}
-        self.bag = None
-        self.bag_lock = threading.Lock()
+        self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
+        self.inbox = Inbox()                 # the slice's messages, for the expectations
+        self.recorder = Recorder()           # --record
+        self.intake = Intake(self.inbox, self.recorder, self.say, self.debug)
+        self.apps = Apps(scenario, self._env, self.run_dir, self.say)
         self.storage_problems = []      # lines of the recording's storage faults
         self.event_times = {}
         self.timed_out = False
@@ -95,19 +94,9 @@ class Runner(Actions):
         self.pubs = {}
         self.cond_hits = {}
         self.t = 0.0
-        self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
         self.published = None      # {topic: n} the world handed us, from the last step
-        self.world_node = None     # the caller id serving /gazebo/step_world
         self.watch = {}            # what (e.g. 'the world node /sim_world') -> pid
-        self.app_procs = []        # [(node name, Proc)]
-        self.apps_finished = set()
-        self.appwatch = None
-        self.hold_unstamped = False  # once stepping: unstamped messages are held (_time_held)
-        self.input_node = None     # the caller id of the inputs: the world, or this replay
-        self.input_times = {}      # topic -> deque of sim times of the inputs' unstamped msgs
-        self.uncounted = set()     # subscribed topics with publishers that do not count
-        self.world_topics = set()  # subscribed topics the world publishes
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
         self.topics_checked = 0.0  # sim time of the last look at the master's topics
         self.topics_dirty = False  # a model was spawned since: look again at once
@@ -125,20 +114,36 @@ class Runner(Actions):
 
     def missing_topics_are_errors(self, why):
         for e in self.expectations:
-            if e.topic not in self.subs and e.verdict is None:
+            if e.topic not in self.intake.subs and e.verdict is None:
                 e.error('topic %s %s' % (e.topic, why))
+
+    @property
+    def world_node(self):
+        """The caller id serving /gazebo/step_world (None: no world node, a replay)."""
+        return self.intake.world_node
 
     start_roscore = property(lambda self: self._start_roscore)
     wait_master = property(lambda self: self._wait_master)
     init_ros = property(lambda self: self._init_ros)
-    open_bag = property(lambda self: self._open_bag)
-    start_apps = property(lambda self: self._start_apps)
-    subscribe_all = property(lambda self: self._subscribe_all)
-    write_meta = property(lambda self: self._meta)
     check_world = property(lambda self: self._check_world)
     settle = property(lambda self: self._settle)
     drain = property(lambda self: self._drain)
-    stamp_held = property(lambda self: self._stamp_held)
+
+    def open_recording(self):
+        """--record: .bag a rosbag, .mcap an MCAP file (ROS 1), a list all of them."""
+        from .mcap_io import RecordingError
+        try:
+            self.recorder.open(self.record_path)
+        except RecordingError as e:
+            raise RunError(str(e))
+
+    def start_apps(self):
+        self.procs += self.apps.launch(self._own_pending)
+        self.apps.await_ready()
+
+    def stamp_held(self):
+        """End of a slice handshake: time the held unstamped messages (Intake)."""
+        self.intake.stamp_held(self.t)
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -200,99 +205,6 @@ class Runner(Actions):
         raise RunError('no ROS master at %s after %g s' % (self._env()['ROS_MASTER_URI'],
                                                            self.sc.timeout), self.world_log())
 
-    def _start_apps(self):
-        self._launch_apps()
-        self._await_apps()
-
-    def _launch_apps(self):
-        """Start the apps' processes (once the master is up: their Python start-up overlaps
-        the world's loading); _await_apps waits until they are registered and connected."""
-        if self.app_procs:
-            return
-        names = []
-        for i, app in enumerate(self.sc.apps):
-            name = app.get('name', 'app%d' % i)
-            params = ['_%s:=%s' % (k, json.dumps(v) if not isinstance(v, str) else v)
-                      for k, v in (app.get('params') or {}).items()]
-            if 'script' in app:
-                script = self.sc.resolve(app['script'])
-                if not os.path.isfile(script):
-                    raise RunError('apps[%d].script: no file %s' % (i, script))
-                cmd = [sys.executable, script]
-            else:
-                pkg, _, typ = app['node'].partition('/')
-                cmd = ['rosrun', pkg, typ]
-            cmd += [str(a) for a in app.get('args') or []] + params + ['__name:=%s' % name]
-            p = _Proc(cmd, self._env(), os.path.join(self.run_dir, '%s.log' % name),
-                      cwd=self.sc.dir)
-            self.procs.append(p)
-            names.append(('/' + name, p))
-        self.app_procs = list(names)
-        self.appwatch = AppWatch(self.app_procs, self._own_pending, warn=self.say) \
-            if names else None
-
-    def _await_apps(self):
-        import rosgraph
-        names = list(self.app_procs)
-        # wait until every app is registered with the master (its topics are known)
-        m = rosgraph.Master('/scenario_runner')
-        deadline = time.monotonic() + min(self.sc.timeout, 60.0)
-        while names and time.monotonic() < deadline:
-            pubs, subs, _srv = m.getSystemState()
-            nodes = {n for _t, ns in pubs + subs for n in ns}
-            for n, p in list(names):
-                if not p.alive():
-                    raise RunError('app %s exited at start (code %s)' % (n, p.p.returncode),
-                                   _tail(p.log_path))
-                if n in nodes:
-                    names.remove((n, p))
-            if names:
-                time.sleep(0.02)
-        if names:
-            raise RunError('app(s) %s did not register with the master within 60 s'
-                           % ', '.join(n for n, _p in names),
-                           sum((_tail(p.log_path) for _n, p in names), []))
-        self._wait_app_connections(m, deadline)
-
-    def _wait_app_connections(self, master, deadline):
-        """Wait until every app's subscriptions to published topics are connected (asked
-        through each node's slave API, getBusInfo), so no app misses the first slice."""
-        from xmlrpc.client import ServerProxy
-        apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
-        infra = {'/rosout', '/rosout_agg', '/clock'}
-        t_start = time.monotonic()
-        last_topics = None
-        while time.monotonic() < deadline:
-            pubs, subs, _srv = master.getSystemState()
-            published = {t for t, _n in pubs}
-            missing = []
-            topics = {(node, t) for node in apps for t, ns in pubs + subs
-                      if node in ns and t not in infra}
-            for node in apps:
-                # an app is set up when it has its own topics (rospy registers /rosout and
-                # /clock at init_node, before the app's code runs; 5 s grace for apps
-                # without topics) and they stopped changing
-                if not any(n == node for n, _t in topics) and \
-                        time.monotonic() - t_start < 5.0:
-                    missing.append(node)
-                    continue
-                want = {t for t, ns in subs if node in ns and t in published}
-                if not want:
-                    continue
-                try:
-                    code, _msg, info = ServerProxy(master.lookupNode(node)).getBusInfo(
-                        '/scenario_runner')
-                except Exception:  # noqa: BLE001 - node not answering yet
-                    missing.append(node)
-                    continue
-                have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
-                if want - have:
-                    missing.append(node)
-            if not missing and topics == last_topics:
-                return
-            last_topics = topics
-            time.sleep(0.02)
-
     # -- ROS side --------------------------------------------------------------------------
     def _init_ros(self):
         os.environ.update({k: v for k, v in self._env().items()
@@ -300,6 +212,7 @@ class Runner(Actions):
         import rospy
         import rospy.core
         self.rospy = rospy
+        self.intake.start(rospy, self.embedded, self._own_topics)
         if self.embedded:
             # one rospy process is one node: the runner is the world node (embed.py)
             argv = self.launch_plan.world_argv()
@@ -330,10 +243,10 @@ class Runner(Actions):
             raise RunError('the embedded world %s could not be built: %s: %s'
                            % (self.launch_plan.world_name, type(e).__name__, e),
                            self.world_log() + traceback.format_exc().splitlines()[-12:])
-        # the world's messages reach _cb in the world's own thread (no delivery thread woken
-        # per message, no GIL hand-off): the runner waits for the step anyway
+        # the world's messages reach the intake in the world's own thread (no delivery thread
+        # woken per message, no GIL hand-off): the runner waits for the step anyway
         from sim_world import fastpub
-        fastpub.deliver_inline(self._cb)
+        fastpub.deliver_inline(self.intake.on_message)
         self.world_thread, self.world_failed = self.host.start()
 
     def _world_settings(self):
@@ -366,10 +279,10 @@ class Runner(Actions):
         import rosgraph
         try:
             _p, _s, services = rosgraph.Master('/scenario_runner').getSystemState()
-            self.world_node = next((ns[0] for name, ns in services
-                                    if name == '/gazebo/step_world' and ns), None)
+            self.intake.world_node = next((ns[0] for name, ns in services
+                                           if name == '/gazebo/step_world' and ns), None)
         except Exception:  # noqa: BLE001 - counted topics then fall back to a quiet period
-            self.world_node = None
+            self.intake.world_node = None
 
     def _world_gone(self):
         """The world's process (roslaunch of a cold run, a warm world's) has exited."""
@@ -433,18 +346,7 @@ class Runner(Actions):
             raise RunError('the %s died at sim time %.3f s (exit code %s)'
                            % ('ROS master (roscore)' if self.embedded else 'world',
                               self._fault_t(), self.world_proc.p.returncode), self.world_log())
-        for name, p in self.app_procs:
-            code = p.p.poll()
-            if code is None or name in self.apps_finished:
-                continue
-            if code == 0:
-                self.apps_finished.add(name)
-                self.say('app %s finished at sim time %.3f s (exit code 0)' % (name, self.t))
-                continue
-            how = 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
-            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, self._fault_t(),
-                                                                        how),
-                           _tail(p.log_path))
+        self.apps.check(self.t, self._fault_t)
 
     def _fault_t(self):
         """The sim time of a fault: the last /clock this node saw (the world may have
@@ -481,11 +383,9 @@ class Runner(Actions):
                 self.watch['the world node /sim_world'] = pid
 
     def _topic_types(self):
-        import rosgraph
-        # topics somebody publishes (getTopicTypes also lists topics only subscribed to)
         try:
-            return dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
-        except (OSError, rosgraph.MasterException) as e:
+            return self.intake.published_types()
+        except Exception as e:  # noqa: BLE001 - OSError, rosgraph.MasterException
             self._check_world()
             raise RunError('the ROS master stopped answering at sim time %.3f s (%s)'
                            % (self._fault_t(), e), self.world_log())
@@ -502,8 +402,8 @@ class Runner(Actions):
             w = ev.get('when')
             if isinstance(w, dict) and 'topic' in w:
                 want.setdefault(w['topic'], 'condition')
-        if self.bag is not None:
-            types = self.topic_types
+        if self.recorder.active:
+            types = self.intake.topic_types
             prefixes = ['/%s/' % ph['ns'].strip('/') for ph in self.sc.phones]
             for t, typ in types.items():
                 if any(t.startswith(p) for p in prefixes) and typ not in HEAVY_TYPES:
@@ -516,57 +416,12 @@ class Runner(Actions):
                 want.setdefault(t, 'report')
         return want
 
-    def _subscribe_all(self, wait_connections=True):
-        import rospy
-        self.topic_types = self._topic_types()
-        new = []
-        for topic, why in self._wanted_topics().items():
-            if topic in self.subs or topic == EVENTS_TOPIC:
-                continue
-            typ = self.topic_types.get(topic)
-            if typ is None:
-                continue
-            cls = self._msg_class(typ)
-            if cls is None:
-                continue
-            self._check_fields(topic, cls)
-            # rospy's recv() allocates buff_size for every read: 16 MB only for images and
-            # clouds (one read a frame); a 16 MB buffer per read of a 300-byte IMU message
-            # fragmented the heap (bench/soak: +5.4 % RSS over an hour)
-            self.subs[topic] = rospy.Subscriber(
-                topic, cls, self._cb, callback_args=topic, queue_size=1000,
-                buff_size=1 << 24 if typ in HEAVY_TYPES else 1 << 16, tcp_nodelay=True)
-            new.append(topic)
-        if new:
-            self._classify(new)
-        if wait_connections and new:
-            deadline = time.monotonic() + 10.0
-            while time.monotonic() < deadline and any(
-                    self.subs[t].get_num_connections() == 0 for t in new):
-                time.sleep(0.02)
-            self._wait_publisher_side(new, deadline)
-            if os.environ.get('SCENARIO_DEBUG'):
-                self.say('subscribed %s; unconnected: %s' % (new, [
-                    t for t in new if self.subs[t].get_num_connections() == 0]))
-        return new
-
-    def _classify(self, topics):
-        """Which new topics the world counts for the handshake, which come from publishers
-        that do not count (waited for with a quiet period)."""
-        import rosgraph
-        try:
-            pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
-        except Exception:  # noqa: BLE001
-            self.uncounted.update(topics)
-            return
-        apps = {n for n, _p in self.app_procs}
-        by_topic = dict((t, set(ns)) for t, ns in pubs)
-        for t in topics:
-            nodes = by_topic.get(t, set())
-            if self.world_node in nodes:
-                self.world_topics.add(t)
-            if nodes - {self.world_node} - apps or self.world_node is None:
-                self.uncounted.add(t)
+    def subscribe_all(self, wait_connections=True):
+        """Subscribe what the expectations, conditions, recording and report want and
+        somebody publishes (Intake.subscribe); returns the new topics."""
+        self._topic_types()
+        return self.intake.subscribe(self._wanted_topics(), self._check_fields,
+                                     self.apps.names(), wait_connections)
 
     def _topics_stale(self):
         """Look for new topics now? After a spawn, while a topic that an expectation or a
@@ -574,40 +429,11 @@ class Runner(Actions):
         (a master round trip per slice was the runner's largest cost in a recording run)."""
         if self.topics_dirty or self.t - self.topics_checked >= TOPIC_RECHECK - 1e-9:
             return True
-        if any(e.topic not in self.subs and e.verdict is None for e in self.expectations):
+        subs = self.intake.subs
+        if any(e.topic not in subs and e.verdict is None for e in self.expectations):
             return True
-        return any(isinstance(ev['when'], dict) and ev['when'].get('topic') not in self.subs
+        return any(isinstance(ev['when'], dict) and ev['when'].get('topic') not in subs
                    for ev in self.pending_conditions() if 'topic' in ev['when'])
-
-    def _world_name(self):
-        """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
-        namespace), else the default /sim_world."""
-        return self.world_node or '/sim_world'
-
-    def _wait_publisher_side(self, topics, deadline):
-        """Wait until the world's publishers count this node as a subscriber: a sensor
-        publishes only while subscribed, so a connection still being accepted on the world's
-        side would cost the first message in one run and not in another."""
-        import rosgraph
-        from xmlrpc.client import ServerProxy
-        master = rosgraph.Master('/scenario_runner')
-        me = self.rospy.get_name()
-        world = self._world_name()
-        try:
-            pubs, _subs, _srv = master.getSystemState()
-            node_uri = master.lookupNode(world)
-        except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
-            return
-        want = {t for t, ns in pubs if world in ns and t in topics}
-        while want and time.monotonic() < deadline:
-            try:
-                _c, _m, info = ServerProxy(node_uri).getBusInfo(me)
-            except Exception:  # noqa: BLE001
-                return
-            have = {c[4] for c in info if len(c) > 4 and c[2] == 'o' and c[1] == me}
-            if not want - have:
-                return
-            time.sleep(0.02)
 
     def _check_fields(self, topic, cls):
         proto = cls()
@@ -618,69 +444,9 @@ class Runner(Actions):
                 except FieldError as err:
                     e.error('field %r does not exist on %s: %s' % (e.field, cls._type, err))
 
-    def _stamp_of(self, msg):
-        """The message's header stamp, or None when it has none."""
-        h = getattr(msg, 'header', None)
-        st = getattr(h, 'stamp', None)
-        if st is not None and (st.secs or st.nsecs):
-            return st.to_sec()
-        return None
-
-    def _cb(self, msg, topic):
-        t = self._stamp_of(msg)
-        hdr = getattr(msg, '_connection_header', None)
-        # a message handed over in this process (an embedded world's) has no header
-        caller = hdr.get('callerid') if hdr else (self.world_node if self.embedded else None)
-        if self.embedded and hdr and topic in self._own_topics():
-            caller = None   # this node's own action publisher, not the world it also is
-        world = caller == self.world_node
-        if t is None and self.hold_unstamped:
-            # no stamp: timed at the end of the handshake that collects it, the world's by
-            # its step answer, an app's by the slice (the same in every run): _time_held
-            self.inbox.hold(topic, msg, from_world=world, tag=self.rospy.get_rostime(
-                ).to_sec() if caller == self.input_node else None)
-            return
-        if t is None:
-            t = self.rospy.get_rostime().to_sec()
-        if self.debug and not hasattr(msg, 'header'):
-            self.say('  debug: %s at %.3f' % (topic, t))
-        self.inbox.put(t, topic, msg, from_world=world)
-        if self.bag is not None:
-            self._bag_write(topic, msg, t)
-
     def _own_topics(self):
         """The topics this runner's actions publish on (Actions._publisher)."""
         return {topic for topic, _typ in self.pubs}
-
-    def _stamp_held(self):
-        for t, topic, msg in self.inbox.stamp_held(self._time_held):
-            if self.debug:
-                self.say('  debug: %s at %.3f' % (topic, t))
-            if self.bag is not None:
-                self._bag_write(topic, msg, t)
-
-    def _time_held(self, topic, tag):
-        """The time of a held message: an input's (the world's, live; the recording's, in a
-        replay) the sim time it went out at, in order per topic (else, should the world not
-        have said, its arrival); an app's the end of the slice."""
-        if tag is None:
-            return self.t
-        q = self.input_times.get(topic)
-        return q.popleft() if q else tag
-
-    def _note_times(self, r):
-        """The step answer's publication times of the world's unstamped messages."""
-        k = 0
-        for topic, n in zip(r.timed_topics, r.timed_counts):
-            if topic in self.subs:
-                self.input_times.setdefault(topic, collections.deque()).extend(
-                    r.times[k:k + n])
-            k += n
-
-    def _bag_write(self, topic, msg, t):
-        with self.bag_lock:
-            if self.bag is not None:
-                self.bag.write(topic, msg, self.rospy.Time.from_sec(max(t, 1e-9)))
 
     def _settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
@@ -695,7 +461,8 @@ class Runner(Actions):
         w0 = time.monotonic()
         if self.published is None and self.world_node is not None:
             self._step_to(self.t)            # paused: only asks for the counts
-        want = {t: n for t, n in (self.published or {}).items() if t in self.subs}
+        intake = self.intake
+        want = {t: n for t, n in (self.published or {}).items() if t in intake.subs}
         self.published = None
         missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG)
         if missing:
@@ -707,19 +474,14 @@ class Runner(Actions):
                                    for t, (got, n) in sorted(missing.items()))),
                            self.world_log())
         # topics of the world it does not count (outside its counted publishers)
-        self.uncounted.update(t for t in self.world_topics if t not in want and
-                              t in self.subs and self.world_node is not None and
-                              getattr(self, '_counted_once', False))
+        intake.uncounted.update(t for t in intake.world_topics if t not in want and
+                                t in intake.subs and self.world_node is not None and
+                                getattr(self, '_counted_once', False))
         self._counted_once = True
-        if self.uncounted:
+        if intake.uncounted:
             self.inbox.settle(0.02)
-        if self.appwatch is not None:
-            try:
-                self.appwatch.wait(self.inbox.wake)
-            except AppHung as e:
-                p = dict(self.app_procs).get(e.name)
-                raise RunError(str(e), _tail(p.log_path) if p else [])
-        self._stamp_held()
+        self.apps.wait_answered(self.inbox.wake)
+        self.stamp_held()
         self.sync_wall += time.monotonic() - w0
 
     def _own_pending(self, q):
@@ -727,12 +489,9 @@ class Runner(Actions):
         None: a subscription deserialised more than reached the inbox, or bytes wait on a
         socket of this process or of the world node (``q``: procs.tcp_queues(), the app
         watch's snapshot)."""
-        for topic, sub in list(self.subs.items()):
-            impl = getattr(sub, 'impl', None)
-            n = sum(getattr(c, 'stat_num_msg', 0) for c in list(getattr(impl, 'connections',
-                                                                        ())))
-            if n > self.inbox.counts.get(topic, 0):
-                return 'runner: %s' % topic
+        topic = self.intake.undelivered()
+        if topic is not None:
+            return 'runner: %s' % topic
         pids = [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
         for pid in pids:
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
@@ -756,13 +515,6 @@ class Runner(Actions):
                 self.env_values = {v.name: v.value for v in msg.values}
 
     # -- events ----------------------------------------------------------------------------
-    def _record_event(self, t, text, **kw):
-        if self.bag is None:
-            return
-        from std_msgs.msg import String
-        self._bag_write(EVENTS_TOPIC, String(json.dumps(dict(kw, t=round(t, 6), text=text),
-                                                        sort_keys=True)), t)
-
     def _push(self, t, fn, what):
         self.agenda.push(t, fn, what)
 
@@ -772,7 +524,7 @@ class Runner(Actions):
             return
         self.event_times[ev['id']] = t
         self.say('  t=%.3f s: %s (%s)' % (t, ev['id'], ev['action']))
-        self._record_event(t, 'event', id=ev['id'], action=ev['action'])
+        self.recorder.event(t, 'event', id=ev['id'], action=ev['action'])
         self._do_action(ev, t)
         for e in self.expectations:
             if e.after == ev['id']:
@@ -886,7 +638,8 @@ class Runner(Actions):
                     break
                 except Exception:  # noqa: BLE001 - not yet registered
                     time.sleep(0.02)
-        self._launch_apps()
+        # the apps' Python start-up overlaps the world's loading; start_apps waits for them
+        self.procs += self.apps.launch(self._own_pending)
         self._init_ros()
         if self.attach:
             self._world_settings()
@@ -949,20 +702,20 @@ class Runner(Actions):
         self._start_world()
         self._spawn_more_phones()
         if self.record_path:
-            self._open_bag()
-        self._start_apps()
+            self.open_recording()
+        self.start_apps()
         if self.warm is not None:
             self.warm.settle()                   # the last scenario's apps are gone
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
-        self.input_node, self.hold_unstamped = self.world_node, True
-        self._subscribe_all()
+        self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
+        self.subscribe_all()
         self._sync()
         self._drain()
         self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
         if self.on_start is not None:
             self.on_start()
-        self._meta()
+        self.write_meta()
         for ev in self.sc.timeline:
             if 'at' in ev:
                 self._push(self.t0 + ev['at'], lambda tt, e=ev: self._fire(e, tt), ev['id'])
@@ -978,7 +731,7 @@ class Runner(Actions):
         if not r.success:
             raise RunError('the world refused the step to sim time %.3f s: %s'
                            % (until, r.status_message), self.world_log())
-        self._note_times(r)
+        self.intake.note_times(r)
         self.published = {t: c - d for t, c, d in zip(r.topics, r.counts, r.dropped)}
         self.dropped = {t: d for t, d in zip(r.topics, r.dropped) if d}
         return r
@@ -1019,7 +772,7 @@ class Runner(Actions):
                 self._sync()
                 last_settle = self.t
                 if self._topics_stale():   # topics that appeared late (apps, spawned models)
-                    self._subscribe_all()
+                    self.subscribe_all()
                     self.topics_checked, self.topics_dirty = self.t, False
             self._drain()
             self._check_conditions()
@@ -1028,38 +781,27 @@ class Runner(Actions):
         self._drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:
-            if e.topic not in self.subs and e.verdict is None:
-                known = sorted(t for t in self.topic_types if t.startswith(
+            if e.topic not in self.intake.subs and e.verdict is None:
+                known = sorted(t for t in self.intake.topic_types if t.startswith(
                     '/' + e.topic.strip('/').split('/')[0] + '/'))
                 e.error('topic %s never appeared%s' % (
                     e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
 
-    def _open_bag(self):
-        from .mcap_io import GuardedWriter, RecordingError  # .bag: rosbag, .mcap: MCAP
-        try:                                                  # (ROS 1); a list: all of them
-            self.bag = GuardedWriter(self.record_path)
-        except RecordingError as e:
-            raise RunError(str(e))
-
-    def _meta(self):
-        if self.bag is None:
+    def write_meta(self):
+        """The recording's meta: seed, inputs (what a replay feeds), t0, duration, types."""
+        if not self.recorder.active:
             return
         import rosgraph
-        from std_msgs.msg import String
+        intake = self.intake
         pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
-        own = self._own_topics()         # an embedded world's node is ours too
-        world = self._world_name()
-        inputs = sorted(t for t, nodes in pubs if t in self.subs and world in nodes
-                        and t not in own)
-        if '/gazebo/environment' not in inputs:
-            inputs.append('/gazebo/environment')
+        inputs = intake.world_inputs(pubs)
         if getattr(self, 'replay_meta', None):
             inputs = self.replay_meta['inputs']
-        meta = dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
-                    real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
-                    duration=self.sc.duration,
-                    types={t: self.topic_types.get(t) for t in self.subs})
-        self._bag_write(META_TOPIC, String(json.dumps(meta, sort_keys=True)), self.t)
+        self.recorder.meta(dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
+                                real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
+                                duration=self.sc.duration,
+                                types={t: intake.topic_types.get(t) for t in intake.subs}),
+                           self.t)
 
     def _shutdown(self):
         # with the world or the master gone (roslaunch takes the master down with its
@@ -1067,9 +809,7 @@ class Runner(Actions):
         # Master' once per topic; rospy's own clean-up at exit is one quiet call
         gone = any(not procs.alive(pid) for pid in self.watch.values()) or (
             self.world_proc is not None and not self.world_proc.alive())
-        for s in self.subs.values():
-            if not gone:
-                s.unregister()
+        self.intake.close(unregister=not gone)
         for px in getattr(self, '_proxies', {}).values():
             px.close()                   # the persistent connections to the world
         if self.warm is not None and not gone:
@@ -1079,15 +819,12 @@ class Runner(Actions):
                     pub.unregister()
                 except Exception:  # noqa: BLE001 - not a rospy publisher
                     pass
-        with self.bag_lock:
-            if self.bag is not None:     # storage faults: one line each, the run goes on
-                self.storage_problems = self.bag.close()
-                self.bag = None
+        self.storage_problems = self.recorder.close()   # storage faults: one line each
         if self.warm is not None:
             # the world stays for the next scenario; the apps get SIGINT and leave the
             # graph while the next scenario's reload and apps start; their rospy exit
             # (0.65 s) is not waited for (WarmHost.leave / settle)
-            names = {id(p): n for n, p in self.app_procs}
+            names = {id(p): n for n, p in self.apps.procs}
             self.warm.leave([(names.get(id(p)), p) for p in self.procs
                              if p is not self.world_proc])
             self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
@@ -1120,14 +857,14 @@ class Runner(Actions):
         if self.world_node is not None and not self.replay:
             got = sum(self.inbox.from_world.values())
             self.dropped = {t: d for t, d in getattr(self, 'dropped', {}).items()
-                            if t in self.subs}       # (rospy's own /clock is not ours)
+                            if t in self.intake.subs}   # (rospy's own /clock: not ours)
             lost = sum(self.dropped.values())
             self.say('handshake: %d messages from the world, %d dropped by its queues%s; '
                      '%.2f s of wall time waiting for slices%s' % (
                          got, lost, '' if not lost else ' (%s)' % ', '.join(
                              '%s %d' % kv for kv in sorted(self.dropped.items())),
-                         self.sync_wall, '' if self.appwatch is None else
-                         ' (%.2f s of it for the apps to answer)' % self.appwatch.waited))
+                         self.sync_wall, '' if self.apps.waited is None else
+                         ' (%.2f s of it for the apps to answer)' % self.apps.waited))
         for v in result.verdicts:
             self.say(v.line())
         if result.error:

@@ -1,0 +1,94 @@
+"""The scenario's apps (apps.py), without a master: what is started, an app that finished
+told from one that crashed, a missing script."""
+import os
+import signal
+import sys
+import time
+import types
+
+import pytest
+
+from testing_instance.apps import Apps
+from testing_instance.results import RunError
+
+
+def _scenario(tmp_path, apps):
+    return types.SimpleNamespace(apps=apps, dir=str(tmp_path), timeout=30.0,
+                                 resolve=lambda p: os.path.join(str(tmp_path), p))
+
+
+def _script(tmp_path, name, body):
+    p = tmp_path / name
+    p.write_text('import sys\n' + body + '\n')
+    return name
+
+
+def _wait_exit(apps):
+    deadline = time.monotonic() + 30
+    while any(p.alive() for _n, p in apps.procs) and time.monotonic() < deadline:
+        time.sleep(0.01)
+
+
+def test_apps_start_with_their_names_params_and_args_and_only_once(tmp_path):
+    _script(tmp_path, 'echo.py', 'print(" ".join(sys.argv[1:])); sys.stdout.flush()')
+    sc = _scenario(tmp_path, [{'script': 'echo.py', 'name': 'reader', 'args': ['--fast'],
+                               'params': {'rate': 5, 'mode': 'qr'}}])
+    out = []
+    apps = Apps(sc, lambda: dict(os.environ), str(tmp_path), out.append)
+    started = apps.launch(lambda q: None)
+    assert len(started) == 1 and apps.names() == {'/reader'}
+    assert apps.launch(lambda q: None) == []             # a second call starts nothing
+    _wait_exit(apps)
+    line = open(str(tmp_path / 'reader.log')).read().strip()
+    assert line == '--fast _rate:=5 _mode:=qr __name:=reader'
+    assert started[0].cmd[0] == sys.executable
+    assert apps.watch is not None
+
+
+def test_an_app_that_exits_0_has_finished_once_and_one_that_fails_is_the_runs_error(tmp_path):
+    _script(tmp_path, 'done.py', 'sys.exit(0)')
+    _script(tmp_path, 'bad.py', 'print("reading the frame failed"); sys.exit(3)')
+    out = []
+    apps = Apps(_scenario(tmp_path, [{'script': 'done.py', 'name': 'done'}]),
+                lambda: dict(os.environ), str(tmp_path), out.append)
+    apps.launch(lambda q: None)
+    _wait_exit(apps)
+    apps.check(1.5, lambda: 1.5)
+    apps.check(2.0, lambda: 2.0)
+    assert out == ['app /done finished at sim time 1.500 s (exit code 0)']
+    bad = Apps(_scenario(tmp_path, [{'script': 'bad.py', 'name': 'bad'}]),
+               lambda: dict(os.environ), str(tmp_path), out.append)
+    bad.launch(lambda q: None)
+    _wait_exit(bad)
+    with pytest.raises(RunError) as e:
+        bad.check(0.5, lambda: 0.75)
+    assert str(e.value) == 'app /bad crashed at sim time 0.750 s (exit code 3)'
+    assert 'reading the frame failed' in e.value.log_lines
+
+
+def test_an_app_killed_by_a_signal_says_which(tmp_path):
+    _script(tmp_path, 'sleepy.py', 'import time; time.sleep(60)')
+    apps = Apps(_scenario(tmp_path, [{'script': 'sleepy.py'}]), lambda: dict(os.environ),
+                str(tmp_path), print)
+    (p,) = apps.launch(lambda q: None)
+    assert apps.names() == {'/app0'}
+    os.kill(p.p.pid, signal.SIGKILL)
+    _wait_exit(apps)
+    with pytest.raises(RunError, match=r'app /app0 crashed .* \(killed by signal 9\)'):
+        apps.check(0.0, lambda: 0.0)
+
+
+def test_a_missing_script_is_an_error_naming_the_entry_and_starts_no_app(tmp_path):
+    _script(tmp_path, 'fine.py', 'import time; time.sleep(60)')
+    apps = Apps(_scenario(tmp_path, [{'script': 'fine.py'}, {'script': 'nowhere.py'}]),
+                lambda: dict(os.environ), str(tmp_path), print)
+    with pytest.raises(RunError, match=r'apps\[1\]\.script: no file .*nowhere\.py'):
+        apps.launch(lambda q: None)
+    assert apps.procs == [] and apps.watch is None and apps.waited is None
+
+
+def test_without_apps_nothing_is_started_or_waited_for(tmp_path):
+    apps = Apps(_scenario(tmp_path, []), lambda: dict(os.environ), str(tmp_path), print)
+    assert apps.launch(lambda q: None) == [] and apps.names() == set()
+    apps.wait_answered(lambda s: None)                    # returns at once
+    apps.check(0.0, lambda: 0.0)

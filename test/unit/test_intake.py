@@ -1,0 +1,164 @@
+"""What comes into a run (intake.py) and its recording (recording.Recorder), without a
+master: stamps, held unstamped messages and their times, the world's and the apps'
+messages told apart, the recording's bytes."""
+import collections
+import json
+import threading
+
+import rosbag
+import rospy
+from sensor_msgs.msg import Imu
+from std_msgs.msg import Float32, String
+
+from testing_instance.inbox import Inbox
+from testing_instance.intake import Intake, stamp_of
+from testing_instance.recording import EVENTS_TOPIC, META_TOPIC, Recorder, read_meta
+
+
+class FakeRospy(object):
+    """get_rostime (the last /clock) and get_name: all on_message needs of rospy."""
+
+    def __init__(self, now=0.0):
+        self.now = now
+
+    def get_rostime(self):
+        return rospy.Time.from_sec(self.now)
+
+    def get_name(self):
+        return '/runner'
+
+
+def _imu(t):
+    m = Imu()
+    m.header.stamp = rospy.Time.from_sec(t)
+    return m
+
+
+def _from(msg, caller):
+    msg._connection_header = {'callerid': caller}
+    return msg
+
+
+def _intake(now=0.0, recorder=None, embedded=False, own=()):
+    it = Intake(Inbox(), recorder or Recorder())
+    it.world_node = '/sim_world'
+    it.start(FakeRospy(now), embedded=embedded, own_topics=lambda: set(own))
+    return it
+
+
+def test_stamp_of_reads_the_header_and_treats_zero_or_none_as_unstamped():
+    assert stamp_of(_imu(1.25)) == 1.25
+    assert stamp_of(Imu()) is None
+    assert stamp_of(Float32(3.0)) is None
+
+
+def test_a_stamped_message_goes_to_the_inbox_at_its_stamp_and_counts_for_its_sender():
+    it = _intake(now=9.0)
+    it.on_message(_from(_imu(1.5), '/sim_world'), '/imu')
+    it.on_message(_from(_imu(1.0), '/app'), '/imu')
+    assert [(t, topic) for t, _s, topic, _m in it.inbox.take()] == [(1.0, '/imu'),
+                                                                    (1.5, '/imu')]
+    assert it.inbox.counts == {'/imu': 2} and it.inbox.from_world == {'/imu': 1}
+
+
+def test_before_stepping_an_unstamped_message_takes_the_clock_and_afterwards_it_is_held():
+    it = _intake(now=2.0)
+    it.on_message(_from(Float32(1.0), '/sim_world'), '/light')
+    assert [t for t, _s, _tp, _m in it.inbox.take()] == [2.0]
+    it.hold_unstamped, it.input_node = True, '/sim_world'
+    it.on_message(_from(Float32(2.0), '/sim_world'), '/light')
+    it.on_message(_from(Float32(3.0), '/app'), '/answer')
+    assert it.inbox.take() == [] and it.inbox.counts == {'/light': 2, '/answer': 1}
+
+
+def test_held_messages_are_timed_by_the_step_answer_and_the_apps_by_the_slice_end():
+    """The world's unstamped messages at the times its step answer lists (in order per
+    topic), an app's at the end of the slice: the same in every run, whenever they came."""
+    it = _intake(now=0.37)          # the clock when they arrived: not their time
+    it.hold_unstamped, it.input_node = True, '/sim_world'
+    it.subs = {'/light': object(), '/pressure': object()}
+    Answer = collections.namedtuple('Answer', 'timed_topics timed_counts times')
+    it.note_times(Answer(['/light', '/gone', '/pressure'], [2, 1, 1],
+                         [0.1, 0.2, 0.15, 0.3]))
+    for v in (1.0, 2.0):
+        it.on_message(_from(Float32(v), '/sim_world'), '/light')
+    it.on_message(_from(Float32(5.0), '/sim_world'), '/pressure')
+    it.on_message(_from(Float32(7.0), '/app'), '/answer')
+    it.stamp_held(0.5)
+    got = [(t, topic, m.data) for t, _s, topic, m in it.inbox.take()]
+    assert got == [(0.1, '/light', 1.0), (0.2, '/light', 2.0), (0.3, '/pressure', 5.0),
+                   (0.5, '/answer', 7.0)]
+    # a replay's input at its recorded time
+    it.input_at('/light', 0.75)
+    it.on_message(_from(Float32(3.0), '/sim_world'), '/light')
+    it.stamp_held(1.0)
+    assert [t for t, _s, _tp, _m in it.inbox.take()] == [0.75]
+
+
+def test_embedded_the_worlds_messages_have_no_header_and_the_nodes_own_do():
+    """An embedded world hands its messages over as objects (no connection header): they
+    are the world's. A message of this node's own action publisher is not."""
+    it = _intake(embedded=True, own=['/cmd'])
+    it.on_message(_imu(1.0), '/imu')                       # handed over in this process
+    it.on_message(_from(_imu(1.0), '/sim_world'), '/cmd')  # our own publisher, looped back
+    assert it.inbox.from_world == {'/imu': 1} and it.inbox.counts['/cmd'] == 1
+
+
+def test_recorded_messages_keep_their_times_and_the_recorder_writes_events_and_meta(tmp_path):
+    rec = Recorder()
+    assert not rec.active
+    rec.write('/imu', _imu(1.0), 1.0)              # nothing open: nothing written, no error
+    assert rec.close() == []
+    path = str(tmp_path / 'r.bag')
+    rec.open(path)
+    it = _intake(recorder=rec)
+    it.on_message(_from(_imu(0.5), '/sim_world'), '/imu')
+    rec.event(0.25, 'event', id='go', action='walk')
+    rec.meta({'seed': 3, 'inputs': ['/imu']}, 0.0)
+    threads = [threading.Thread(target=lambda i=i: rec.write('/n', Float32(i), 1.0 + i))
+               for i in range(8)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert rec.close() == [] and not rec.active
+    with rosbag.Bag(path) as b:
+        msgs = [(topic, t.to_sec()) for topic, _m, t in b.read_messages()]
+        events = [json.loads(m.data) for _tp, m, _t in b.read_messages(topics=[EVENTS_TOPIC])]
+        assert read_meta(b) == {'seed': 3, 'inputs': ['/imu']}
+    assert ('/imu', 0.5) in msgs and (META_TOPIC, 1e-9) in [
+        (tp, round(t, 9)) for tp, t in msgs]
+    assert events == [{'action': 'walk', 'id': 'go', 't': 0.25, 'text': 'event'}]
+    assert sorted(t for tp, t in msgs if tp == '/n') == [1.0 + i for i in range(8)]
+
+
+def test_a_recording_that_cannot_be_made_is_an_error_naming_the_file(tmp_path):
+    from testing_instance.mcap_io import RecordingError
+    rec = Recorder()
+    (tmp_path / 'file').write_text('a file, not a folder')
+    bad = str(tmp_path / 'file' / 'r.bag')
+    try:
+        rec.open(bad)
+    except RecordingError as e:
+        assert str(tmp_path / 'file') in str(e) and 'cannot create the recording' in str(e)
+    else:
+        raise AssertionError('no error for %s' % bad)
+    assert not rec.active
+
+
+def test_world_inputs_are_the_subscribed_topics_of_the_world_node_not_our_own():
+    it = _intake(own=['/cmd'])
+    it.world_node = '/lab/sim_world'
+    it.subs = {'/lab/imu': 1, '/cmd': 1, '/app/out': 1}
+    pubs = [('/lab/imu', ['/lab/sim_world']), ('/cmd', ['/lab/sim_world']),
+            ('/app/out', ['/app']), ('/lab/gps', ['/lab/sim_world'])]
+    assert it.world_inputs(pubs) == ['/lab/imu', '/gazebo/environment']
+
+
+def test_string_messages_are_recorded_whole(tmp_path):
+    rec = Recorder()
+    rec.open(str(tmp_path / 's.bag'))
+    rec.write('/s', String('x' * 10000), 2.0)
+    rec.close()
+    with rosbag.Bag(str(tmp_path / 's.bag')) as b:
+        assert [m.data for _tp, m, _t in b.read_messages()] == ['x' * 10000]

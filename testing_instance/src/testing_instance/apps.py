@@ -1,0 +1,156 @@
+"""The scenario's apps: black boxes in processes of their own (``apps:`` of a scenario).
+
+``launch`` starts them once the master is up (their Python start-up overlaps the world's
+loading); ``await_ready`` waits until each is registered with the master and every
+subscription it has to a published topic is connected (so no app misses the first slice);
+``check`` tells an app that finished (exit code 0, said once) from one that crashed (the
+run's ERROR, with its log tail); ``wait_answered`` waits, after each slice, until every app
+has answered it (appwatch: evidence from /proc, not a quiet period)."""
+import json
+import os
+import sys
+import time
+
+from .appwatch import AppHung, AppWatch
+from .procs import Proc, tail
+from .results import RunError
+
+__all__ = ['Apps']
+
+INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
+
+
+class Apps(object):
+    def __init__(self, sc, env, run_dir, say):
+        """sc: the scenario; env(): the processes' environment (the run's master);
+        run_dir: where each app's log goes (<name>.log); say(line): the run's output."""
+        self.sc = sc
+        self.env = env
+        self.run_dir = run_dir
+        self.say = say
+        self.procs = []            # [(node name, Proc)]
+        self.finished = set()
+        self.watch = None          # AppWatch, once launched
+
+    def names(self):
+        return {n for n, _p in self.procs}
+
+    def launch(self, own_pending):
+        """Start every app (once); own_pending(queues): why this process still holds app
+        messages not yet delivered (AppWatch). Returns the new Procs."""
+        if self.procs:
+            return []
+        cmds = []                  # every command first: a bad entry starts no app at all
+        for i, app in enumerate(self.sc.apps):
+            name = app.get('name', 'app%d' % i)
+            params = ['_%s:=%s' % (k, json.dumps(v) if not isinstance(v, str) else v)
+                      for k, v in (app.get('params') or {}).items()]
+            if 'script' in app:
+                script = self.sc.resolve(app['script'])
+                if not os.path.isfile(script):
+                    raise RunError('apps[%d].script: no file %s' % (i, script))
+                cmd = [sys.executable, script]
+            else:
+                pkg, _, typ = app['node'].partition('/')
+                cmd = ['rosrun', pkg, typ]
+            cmd += [str(a) for a in app.get('args') or []] + params + ['__name:=%s' % name]
+            cmds.append((name, cmd))
+        for name, cmd in cmds:
+            p = Proc(cmd, self.env(), os.path.join(self.run_dir, '%s.log' % name),
+                     cwd=self.sc.dir)
+            self.procs.append(('/' + name, p))
+        if self.procs:
+            self.watch = AppWatch(self.procs, own_pending, warn=self.say)
+        return [p for _n, p in self.procs]
+
+    def await_ready(self):
+        """Wait until every app is registered with the master and connected."""
+        import rosgraph
+        names = list(self.procs)
+        m = rosgraph.Master('/scenario_runner')
+        deadline = time.monotonic() + min(self.sc.timeout, 60.0)
+        while names and time.monotonic() < deadline:
+            pubs, subs, _srv = m.getSystemState()
+            nodes = {n for _t, ns in pubs + subs for n in ns}
+            for n, p in list(names):
+                if not p.alive():
+                    raise RunError('app %s exited at start (code %s)' % (n, p.p.returncode),
+                                   tail(p.log_path))
+                if n in nodes:
+                    names.remove((n, p))
+            if names:
+                time.sleep(0.02)
+        if names:
+            raise RunError('app(s) %s did not register with the master within 60 s'
+                           % ', '.join(n for n, _p in names),
+                           sum((tail(p.log_path) for _n, p in names), []))
+        self._wait_connections(m, deadline)
+
+    def _wait_connections(self, master, deadline):
+        """Wait until every app's subscriptions to published topics are connected (asked
+        through each node's slave API, getBusInfo), so no app misses the first slice."""
+        from xmlrpc.client import ServerProxy
+        apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
+        t_start = time.monotonic()
+        last_topics = None
+        while time.monotonic() < deadline:
+            pubs, subs, _srv = master.getSystemState()
+            published = {t for t, _n in pubs}
+            missing = []
+            topics = {(node, t) for node in apps for t, ns in pubs + subs
+                      if node in ns and t not in INFRA_TOPICS}
+            for node in apps:
+                # an app is set up when it has its own topics (rospy registers /rosout and
+                # /clock at init_node, before the app's code runs; 5 s grace for apps
+                # without topics) and they stopped changing
+                if not any(n == node for n, _t in topics) and \
+                        time.monotonic() - t_start < 5.0:
+                    missing.append(node)
+                    continue
+                want = {t for t, ns in subs if node in ns and t in published}
+                if not want:
+                    continue
+                try:
+                    code, _msg, info = ServerProxy(master.lookupNode(node)).getBusInfo(
+                        '/scenario_runner')
+                except Exception:  # noqa: BLE001 - node not answering yet
+                    missing.append(node)
+                    continue
+                have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
+                if want - have:
+                    missing.append(node)
+            if not missing and topics == last_topics:
+                return
+            last_topics = topics
+            time.sleep(0.02)
+
+    def check(self, t, fault_t):
+        """An app that exited: code 0 has finished (said once, at sim time ``t``); any other
+        code or a signal is the run's ERROR at ``fault_t()``, with its log tail."""
+        for name, p in self.procs:
+            code = p.p.poll()
+            if code is None or name in self.finished:
+                continue
+            if code == 0:
+                self.finished.add(name)
+                self.say('app %s finished at sim time %.3f s (exit code 0)' % (name, t))
+                continue
+            how = 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
+            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, fault_t(), how),
+                           tail(p.log_path))
+
+    def wait_answered(self, wake):
+        """After a slice: until every app has answered it (AppWatch.wait; ``wake(s)``: wait
+        up to s for the next message to arrive). A hung app: the run's ERROR."""
+        if self.watch is None:
+            return
+        try:
+            self.watch.wait(wake)
+        except AppHung as e:
+            p = dict(self.procs).get(e.name)
+            raise RunError(str(e), tail(p.log_path) if p else [])
+
+    @property
+    def waited(self):
+        """Wall s spent waiting for the apps to answer, or None without apps."""
+        return None if self.watch is None else self.watch.waited

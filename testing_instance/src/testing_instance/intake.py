@@ -1,0 +1,230 @@
+"""What comes into a run: the runner's subscriptions, the time of each message, and its way
+into the Inbox (for the expectations) and the Recorder.
+
+- ``subscribe(wanted)``: one rospy Subscriber per wanted topic that somebody publishes,
+  then (``classify``) which of them the world counts for the slice handshake and which come
+  from publishers that do not count (waited for by a quiet period), and
+  ``wait_publisher_side``: until the world's publishers list this node (a sensor publishes
+  only while subscribed).
+- ``on_message``: every message's sim time: its header stamp, else (once stepping) it is
+  held and timed by ``stamp_held`` at the end of the slice handshake that collects it: the
+  world's by the publication times its step answer lists (``note_times``), an app's by the
+  slice's end. So an unstamped message's time is the same in every run.
+"""
+import collections
+import time
+
+from .recording import EVENTS_TOPIC, HEAVY_TYPES
+
+__all__ = ['Intake', 'stamp_of']
+
+
+def stamp_of(msg):
+    """The message's header stamp (s), or None when it has none (or a zero one)."""
+    h = getattr(msg, 'header', None)
+    st = getattr(h, 'stamp', None)
+    if st is not None and (st.secs or st.nsecs):
+        return st.to_sec()
+    return None
+
+
+class Intake(object):
+    def __init__(self, inbox, recorder, say=None, debug=False):
+        self.inbox = inbox
+        self.recorder = recorder
+        self.say = say or (lambda s: None)
+        self.debug = debug
+        self.rospy = None          # set by start() once the node is initialised
+        self.embedded = False      # the world is this node: its messages have no header
+        self.own_topics = frozenset  # () -> the topics this node's own publishers use
+        self.subs = {}             # topic -> rospy.Subscriber
+        self.topic_types = {}      # topic -> type, of the topics somebody publishes
+        self.world_node = None     # the caller id serving /gazebo/step_world
+        self.world_topics = set()  # subscribed topics the world publishes
+        self.uncounted = set()     # subscribed topics with publishers that do not count
+        self.hold_unstamped = False  # once stepping: unstamped messages are held
+        self.input_node = None     # the caller id of the inputs: the world, or a replay
+        self.input_times = {}      # topic -> deque of sim times of its unstamped inputs
+
+    def start(self, rospy, embedded=False, own_topics=None):
+        self.rospy = rospy
+        self.embedded = embedded
+        if own_topics is not None:
+            self.own_topics = own_topics
+
+    def world_name(self):
+        """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
+        namespace), else the default /sim_world."""
+        return self.world_node or '/sim_world'
+
+    # -- subscribing -----------------------------------------------------------------------
+    def published_types(self):
+        """{topic: type} of the topics somebody publishes (getTopicTypes would also list
+        topics only subscribed to); OSError or rosgraph.MasterException when the master
+        does not answer."""
+        import rosgraph
+        self.topic_types = dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
+        return self.topic_types
+
+    def subscribe(self, wanted, check_fields=None, apps=(), wait_connections=True):
+        """Subscribe every topic of ``wanted`` that is published and not yet subscribed
+        (``check_fields(topic, cls)`` first); returns the new topics."""
+        import roslib.message
+        new = []
+        for topic in wanted:
+            if topic in self.subs or topic == EVENTS_TOPIC:
+                continue
+            typ = self.topic_types.get(topic)
+            if typ is None:
+                continue
+            cls = roslib.message.get_message_class(typ)
+            if cls is None:
+                continue
+            if check_fields is not None:
+                check_fields(topic, cls)
+            # rospy's recv() allocates buff_size for every read: 16 MB only for images and
+            # clouds (one read a frame); a 16 MB buffer per read of a 300-byte IMU message
+            # fragmented the heap (bench/soak: +5.4 % RSS over an hour)
+            self.subs[topic] = self.rospy.Subscriber(
+                topic, cls, self.on_message, callback_args=topic, queue_size=1000,
+                buff_size=1 << 24 if typ in HEAVY_TYPES else 1 << 16, tcp_nodelay=True)
+            new.append(topic)
+        if new:
+            self.classify(new, apps)
+        if wait_connections and new:
+            deadline = time.monotonic() + 10.0
+            while time.monotonic() < deadline and any(
+                    self.subs[t].get_num_connections() == 0 for t in new):
+                time.sleep(0.02)
+            self.wait_publisher_side(new, deadline)
+            if self.debug:
+                self.say('subscribed %s; unconnected: %s' % (new, [
+                    t for t in new if self.subs[t].get_num_connections() == 0]))
+        return new
+
+    def classify(self, topics, apps=()):
+        """Which new topics the world counts for the handshake, which come from publishers
+        that do not count (waited for with a quiet period). ``apps``: the apps' node names
+        (their outputs are waited for by evidence, appwatch)."""
+        import rosgraph
+        try:
+            pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
+        except Exception:  # noqa: BLE001
+            self.uncounted.update(topics)
+            return
+        by_topic = dict((t, set(ns)) for t, ns in pubs)
+        for t in topics:
+            nodes = by_topic.get(t, set())
+            if self.world_node in nodes:
+                self.world_topics.add(t)
+            if nodes - {self.world_node} - set(apps) or self.world_node is None:
+                self.uncounted.add(t)
+
+    def wait_publisher_side(self, topics, deadline):
+        """Wait until the world's publishers count this node as a subscriber: a sensor
+        publishes only while subscribed, so a connection still being accepted on the world's
+        side would cost the first message in one run and not in another."""
+        import rosgraph
+        from xmlrpc.client import ServerProxy
+        master = rosgraph.Master('/scenario_runner')
+        me = self.rospy.get_name()
+        world = self.world_name()
+        try:
+            pubs, _subs, _srv = master.getSystemState()
+            node_uri = master.lookupNode(world)
+        except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
+            return
+        want = {t for t, ns in pubs if world in ns and t in topics}
+        while want and time.monotonic() < deadline:
+            try:
+                _c, _m, info = ServerProxy(node_uri).getBusInfo(me)
+            except Exception:  # noqa: BLE001
+                return
+            have = {c[4] for c in info if len(c) > 4 and c[2] == 'o' and c[1] == me}
+            if not want - have:
+                return
+            time.sleep(0.02)
+
+    def undelivered(self):
+        """A subscribed topic of which rospy has deserialised more messages than reached the
+        inbox (still in its callback queue), or None."""
+        for topic, sub in list(self.subs.items()):
+            impl = getattr(sub, 'impl', None)
+            n = sum(getattr(c, 'stat_num_msg', 0) for c in list(getattr(impl, 'connections',
+                                                                        ())))
+            if n > self.inbox.counts.get(topic, 0):
+                return topic
+        return None
+
+    def close(self, unregister=True):
+        """Unsubscribe everything (``unregister=False``: the master is gone, rospy's own
+        clean-up at exit is one quiet call instead of a failing one per topic)."""
+        for s in self.subs.values():
+            if unregister:
+                s.unregister()
+
+    # -- timing ----------------------------------------------------------------------------
+    def on_message(self, msg, topic):
+        """A subscription's callback (an embedded world calls it in its own thread)."""
+        t = stamp_of(msg)
+        hdr = getattr(msg, '_connection_header', None)
+        # a message handed over in this process (an embedded world's) has no header
+        caller = hdr.get('callerid') if hdr else (self.world_node if self.embedded else None)
+        if self.embedded and hdr and topic in self.own_topics():
+            caller = None   # this node's own action publisher, not the world it also is
+        world = caller == self.world_node
+        if t is None and self.hold_unstamped:
+            self.inbox.hold(topic, msg, from_world=world, tag=self.rospy.get_rostime(
+                ).to_sec() if caller == self.input_node else None)
+            return
+        if t is None:
+            t = self.rospy.get_rostime().to_sec()
+        if self.debug and not hasattr(msg, 'header'):
+            self.say('  debug: %s at %.3f' % (topic, t))
+        self.inbox.put(t, topic, msg, from_world=world)
+        if self.recorder.active:
+            self.recorder.write(topic, msg, t)
+
+    def note_times(self, answer):
+        """The step answer's publication times of the world's unstamped messages."""
+        k = 0
+        for topic, n in zip(answer.timed_topics, answer.timed_counts):
+            if topic in self.subs:
+                self.input_times.setdefault(topic, collections.deque()).extend(
+                    answer.times[k:k + n])
+            k += n
+
+    def input_at(self, topic, t):
+        """An unstamped input a replay publishes at its recorded sim time ``t``."""
+        self.input_times.setdefault(topic, collections.deque()).append(t)
+
+    def stamp_held(self, t_end):
+        """Time the held messages at the end of the slice handshake of the slice that ended
+        at sim time ``t_end``, and record them."""
+        def time_of(topic, tag):
+            return self._time_held(topic, tag, t_end)
+        for t, topic, msg in self.inbox.stamp_held(time_of):
+            if self.debug:
+                self.say('  debug: %s at %.3f' % (topic, t))
+            if self.recorder.active:
+                self.recorder.write(topic, msg, t)
+
+    def _time_held(self, topic, tag, t_end):
+        """The time of a held message: an input's (the world's, live; the recording's, in a
+        replay) the sim time it went out at, in order per topic (else, should the world not
+        have said, its arrival); an app's the end of the slice."""
+        if tag is None:
+            return t_end
+        q = self.input_times.get(topic)
+        return q.popleft() if q else tag
+
+    def world_inputs(self, pubs):
+        """The recording's inputs (what a replay feeds): the subscribed topics the world
+        node publishes (``pubs``: getSystemState's publishers), not this node's own."""
+        own = self.own_topics()      # an embedded world's node is ours too
+        world = self.world_name()
+        inputs = sorted(t for t, nodes in pubs if t in self.subs and world in nodes
+                        and t not in own)
+        if '/gazebo/environment' not in inputs:
+            inputs.append('/gazebo/environment')
+        return inputs

@@ -15,17 +15,26 @@ watchdog (``timeout``).
 Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scenario file is
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
+
+The Runner is the loop; each of its jobs is an object of its own module:
+
+- ``worldside.WorldSide``: the master and the world (embedded, launched, warm, attached),
+  its services, its processes watched, its log;
+- ``apps.Apps``: the scenario's apps started, ready, finished or crashed, answered;
+- ``intake.Intake``: the subscriptions and each message's sim time, into the
+  ``inbox.Inbox`` (the slice's messages for the expectations) and the
+  ``recording.Recorder`` (``--record``);
+- ``timeline``: the agenda and the slice rule (pure); ``clock``: the world's lockstep or a
+  recording's replay; ``actions.Actions``: the timeline's actions; ``expect``: the
+  expectations' verdicts; ``results``: the result and JUnit.
 """
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import threading
 import time
-
-from sim_world.netutil import wait_for_service
 
 from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
@@ -34,11 +43,12 @@ from .clock import WorldClock
 from .expect import Expectation, FieldError, Predicate, Verdict, get_field
 from .inbox import Inbox
 from .intake import Intake
-from .procs import Proc as _Proc, free_port, tail as _tail
+from .procs import free_port  # noqa: F401 - re-exported
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC, Recorder  # noqa: F401
 from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
 from .timeline import Agenda, next_stop
+from .worldside import WorldSide
 
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
@@ -71,22 +81,17 @@ class Runner(Actions):
         self.out = out or (lambda s: (sys.stdout.write(s + '\n'), sys.stdout.flush()))
         self.own_dir = run_dir is None
         self.run_dir = run_dir or tempfile.mkdtemp(prefix='scenario_')
-        self.port = port
         self.warm = warm if not (self.attach or replay) else None  # a WarmHost (warm.py)
         # the World in this process (embed.py): this node becomes the world node. 'auto':
         # when the launch file has one sim_world node (else that node runs as a process)
-        self.embedded = bool(embedded) and not (self.attach or replay or self.warm)
-        self.embed_required = embedded is True
-        self.host = None           # embedded: the sim_world WorldHost
-        self.world_logfile = None  # embedded: the world's log lines (embed.LogFile)
-        self.launch_procs = []     # embedded: the launch file's other nodes
-        self.procs = []
-        self.world_proc = None
+        self.world = WorldSide(scenario, self.run_dir, port, self.attach,
+                               bool(embedded) and not (self.attach or replay or self.warm),
+                               embedded is True, self.warm, self.launch_args)
         self.debug = bool(os.environ.get('SCENARIO_DEBUG'))
         self.inbox = Inbox()                 # the slice's messages, for the expectations
         self.recorder = Recorder()           # --record
         self.intake = Intake(self.inbox, self.recorder, self.say, self.debug)
-        self.apps = Apps(scenario, self._env, self.run_dir, self.say)
+        self.apps = Apps(scenario, self.world.env, self.run_dir, self.say)
         self.storage_problems = []      # lines of the recording's storage faults
         self.event_times = {}
         self.timed_out = False
@@ -96,7 +101,6 @@ class Runner(Actions):
         self.t = 0.0
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
         self.published = None      # {topic: n} the world handed us, from the last step
-        self.watch = {}            # what (e.g. 'the world node /sim_world') -> pid
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
         self.topics_checked = 0.0  # sim time of the last look at the master's topics
         self.topics_dirty = False  # a model was spawned since: look again at once
@@ -110,7 +114,16 @@ class Runner(Actions):
                 e.start(t)
 
     def master_uri(self):
-        return self._env()['ROS_MASTER_URI']
+        return self.world.master_uri()
+
+    # the world's side (worldside.py): what the actions, replay.py and warm.py ask of it
+    port = property(lambda self: self.world.port,
+                    lambda self, port: setattr(self.world, 'port', port))
+    embedded = property(lambda self: self.world.embedded)
+    srv_types = property(lambda self: self.world.srv_types)
+    get_state = property(lambda self: self.world.get_state)
+    proxy = property(lambda self: self.world.proxy)
+    world_log = property(lambda self: self.world.log_tail)
 
     def missing_topics_are_errors(self, why):
         for e in self.expectations:
@@ -122,8 +135,8 @@ class Runner(Actions):
         """The caller id serving /gazebo/step_world (None: no world node, a replay)."""
         return self.intake.world_node
 
-    start_roscore = property(lambda self: self._start_roscore)
-    wait_master = property(lambda self: self._wait_master)
+    start_roscore = property(lambda self: self.world.start_roscore)
+    wait_master = property(lambda self: self.world.wait_master)
     init_ros = property(lambda self: self._init_ros)
     check_world = property(lambda self: self._check_world)
     settle = property(lambda self: self._settle)
@@ -138,7 +151,7 @@ class Runner(Actions):
             raise RunError(str(e))
 
     def start_apps(self):
-        self.procs += self.apps.launch(self._own_pending)
+        self.apps.launch(self._own_pending)
         self.apps.await_ready()
 
     def stamp_held(self):
@@ -149,25 +162,7 @@ class Runner(Actions):
     def say(self, text):
         self.out(text)
 
-    def world_log(self):
-        if self.world_logfile is not None:
-            # the embedded world's lines, then the last ones of the launch file's other nodes
-            # (what roslaunch's output would have shown after them)
-            lines = self.world_logfile.tail()
-            for p in self.launch_procs:
-                lines += ['%s:' % os.path.basename(p.log_path)] + _tail(p.log_path, 8)
-            return lines
-        if self.warm is not None:
-            return self.warm.log_tail()
-        if self.world_proc is not None:
-            return _tail(self.world_proc.log_path)
-        return []
-
     # -- processes -------------------------------------------------------------------------
-    def _env(self):
-        return procs.ros_env(os.path.join(self.run_dir, 'log'),
-                             None if self.attach else self.port)
-
     def launch_args(self):
         return launch_args(self.sc, self.seed, self.rtf, self.report_dir)
 
@@ -177,143 +172,24 @@ class Runner(Actions):
     def world_key(self):
         return world_key(self.sc, self.report_dir)
 
-    def _launch_world(self):
-        path, args = self.launch_args()
-        cmd = ['roslaunch', '-p', str(self.port), path] + args
-        self.world_proc = _Proc(cmd, self._env(), os.path.join(self.run_dir, 'world.log'))
-        self.procs.append(self.world_proc)
-
-    def _start_roscore(self):
-        self.world_proc = _Proc(['roscore', '-p', str(self.port)], self._env(),
-                                os.path.join(self.run_dir, 'roscore.log'))
-        self.procs.append(self.world_proc)
-
-    def _wait_master(self, deadline):
-        import rosgraph
-        m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
-        while time.monotonic() < deadline:
-            if self.world_proc is not None and not self.world_proc.alive():
-                raise RunError('the world exited while starting (code %s)'
-                               % self.world_proc.p.returncode, self.world_log())
-            try:
-                # getSystemState: only a master answers it (getPid is any node's API, and a
-                # node of another job may hold this port for a moment)
-                m.getSystemState()
-                return
-            except Exception:  # noqa: BLE001 - not up yet
-                time.sleep(0.02)
-        raise RunError('no ROS master at %s after %g s' % (self._env()['ROS_MASTER_URI'],
-                                                           self.sc.timeout), self.world_log())
-
     # -- ROS side --------------------------------------------------------------------------
     def _init_ros(self):
-        os.environ.update({k: v for k, v in self._env().items()
+        os.environ.update({k: v for k, v in self.world.env().items()
                            if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
         import rospy
-        import rospy.core
         self.rospy = rospy
         self.intake.start(rospy, self.embedded, self._own_topics)
-        if self.embedded:
-            # one rospy process is one node: the runner is the world node (embed.py)
-            argv = self.launch_plan.world_argv()
-            # rospy takes a node's namespace from ROS_NAMESPACE or this process's own argv
-            # when it is imported, never from init_node's argv (__ns:=): set it as
-            # roslaunch's ROS_NAMESPACE would (not in the environment: the apps inherit it)
-            import rospy.names
-            rospy.names._set_caller_id(self.launch_plan.world_namespace() + 'unnamed')
-            rospy.init_node(self.launch_plan.world.name, argv=argv, disable_signals=True)
-            self._embed_world(argv)
-        elif not rospy.core.is_initialized():    # a warm worker's runners share the node
-            rospy.init_node('scenario_runner', disable_signals=True)
-
-    def _embed_world(self, argv):
-        """Build the launch file's world in this process and start its loop thread, as the
-        sim_world executable does (sim_world.node)."""
-        from sim_world.node import SetupError, host_from_params
-        from .embed import LogFile
-        self.world_logfile = LogFile(os.path.join(self.run_dir, 'world.log'))
-        try:
-            # the node's own argv: without its remappings, as rospy.myargv gives it
-            self.host = host_from_params(self.rospy.myargv(argv))
-        except SetupError as e:
-            raise RunError('the embedded world %s: %s' % (self.launch_plan.world_name, e),
-                           self.world_log())
-        except Exception as e:  # noqa: BLE001 - a plugin's failure while loading: the run's
-            import traceback    # ERROR (the sim_world node would have died with it)
-            raise RunError('the embedded world %s could not be built: %s: %s'
-                           % (self.launch_plan.world_name, type(e).__name__, e),
-                           self.world_log() + traceback.format_exc().splitlines()[-12:])
-        # the world's messages reach the intake in the world's own thread (no delivery thread
-        # woken per message, no GIL hand-off): the runner waits for the step anyway
-        from sim_world import fastpub
-        fastpub.deliver_inline(self.intake.on_message)
-        self.world_thread, self.world_failed = self.host.start()
+        self.world.init_node(rospy, self.intake.on_message)
 
     def _world_settings(self):
         """Attached: the seed and real-time factor are the running world's."""
-        import rospy
-        try:
-            seed = rospy.get_param('/sim_world/seed', '')
-            self.seed = int(seed) if str(seed).strip() else self.seed
-            self.rtf = float(rospy.get_param('/sim_world/real_time_factor', self.rtf))
-        except (ValueError, TypeError, OSError):
-            pass
+        seed, rtf = self.world.settings()
+        self.seed = self.seed if seed is None else seed
+        self.rtf = self.rtf if rtf is None else rtf
 
     def _services(self):
-        import rospy
-        from mobile_device_sim.srv import (DeleteModel, GetModelState, InjectTouch,
-                                           PressButton, SetEnvironment, SetModelState,
-                                           SetSensorFault, SpawnModel, StepWorld)
-        self.srv_types = dict(step=StepWorld, get=GetModelState, set=SetModelState,
-                              env=SetEnvironment, fault=SetSensorFault, spawn_urdf=SpawnModel,
-                              spawn_sdf=SpawnModel, delete=DeleteModel, touch=InjectTouch,
-                              button=PressButton)
-        self._proxies = {}
-        self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
-        self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
-        if not wait_for_service('/gazebo/step_world', timeout=self.sc.timeout,
-                                caller=rospy.get_name(), give_up=self._world_gone):
-            self._check_world()
-            raise RunError('the world did not offer /gazebo/step_world within %g s'
-                           % self.sc.timeout, self.world_log())
-        import rosgraph
-        try:
-            _p, _s, services = rosgraph.Master('/scenario_runner').getSystemState()
-            self.intake.world_node = next((ns[0] for name, ns in services
-                                           if name == '/gazebo/step_world' and ns), None)
-        except Exception:  # noqa: BLE001 - counted topics then fall back to a quiet period
-            self.intake.world_node = None
-
-    def _world_gone(self):
-        """The world's process (roslaunch of a cold run, a warm world's) has exited."""
-        return self.world_proc is not None and not self.world_proc.alive()
-
-    def proxy(self, name, typ):
-        """A persistent proxy of the world's service ``name``: one connection for the run
-        (a new one per call cost a master lookup, a TCP handshake and a handler thread in
-        the world: 30 % of a walking scenario's timeline), and no TIME_WAIT sockets for
-        the app watch's /proc/net/tcp walks to step over."""
-        import rospy
-        if name not in self._proxies:
-            local = None
-            if self.embedded:       # the world's services are this process's: a call
-                from .embed import local_service
-                local = local_service(name)
-            self._proxies[name] = local or rospy.ServiceProxy(name, typ, persistent=True)
-        return self._proxies[name]
-
-    def _wait_phones(self, deadline):
-        for ph in self.sc.phones[:1] if not self.attach else self.sc.phones:
-            while True:
-                self._check_world()
-                try:
-                    if self.get_state(ph['ns'], '').success:
-                        break
-                except Exception:  # noqa: BLE001 - service not yet there
-                    pass
-                if time.monotonic() > deadline:
-                    raise RunError('phone model %r did not appear' % ph['ns'], self.world_log())
-                time.sleep(0.05)
+        self.intake.world_node = self.world.connect(self._check_world)
+        self.step_srv = self.world.step_srv
 
     def _spawn_more_phones(self):
         for ph in self.sc.phones[1:]:
@@ -328,24 +204,7 @@ class Runner(Actions):
         if self.timed_out:
             raise RunError('watchdog: the scenario did not finish within %g s of wall time '
                            '(timeout)' % self.sc.timeout, self.world_log())
-        for what, pid in self.watch.items():
-            if not procs.alive(pid):
-                raise RunError('%s died at sim time %.3f s (%s, pid %d, is gone)' % (
-                    'the ROS master' if 'master' in what else 'the world', self._fault_t(),
-                    what, pid),
-                    self.world_log() + self._ros_log(what))
-        if self.host is not None and self.world_failed:
-            e = self.world_failed[0]
-            raise RunError('the embedded world stopped at sim time %.3f s: %s: %s'
-                           % (self._fault_t(), type(e).__name__, e), self.world_log())
-        if self.host is not None and self.rospy.is_shutdown():
-            raise RunError('the world node %s (embedded in this run) was shut down at sim '
-                           'time %.3f s (rosnode kill?)' % (self.launch_plan.world_name,
-                                                            self._fault_t()), self.world_log())
-        if self.world_proc is not None and not self.world_proc.alive():
-            raise RunError('the %s died at sim time %.3f s (exit code %s)'
-                           % ('ROS master (roscore)' if self.embedded else 'world',
-                              self._fault_t(), self.world_proc.p.returncode), self.world_log())
+        self.world.check(self._fault_t)
         self.apps.check(self.t, self._fault_t)
 
     def _fault_t(self):
@@ -355,32 +214,6 @@ class Runner(Actions):
             return max(self.t, self.rospy.get_rostime().to_sec())
         except Exception:  # noqa: BLE001 - rospy not initialised (start-up)
             return self.t
-
-    def _ros_log(self, what):
-        """The log tail of the ROS log of a watched process (rosmaster: master.log)."""
-        d = os.path.join(self.run_dir, 'log')
-        key = 'master' if 'master' in what else what.rsplit('/', 1)[-1]
-        lines = []
-        for root, _dirs, files in os.walk(d):
-            for f in sorted(files):
-                if f.startswith(key) and f.endswith('.log'):
-                    lines += ['%s:' % f] + _tail(os.path.join(root, f), 10)
-        return lines
-
-    def _find_watched(self):
-        """The master and the world node below roslaunch: watched by pid (roslaunch keeps
-        running when its master dies)."""
-        if self.warm is not None:
-            self.watch.update(self.warm.watched())
-            return
-        if self.world_proc is None:
-            return
-        for pid in procs.descendants(self.world_proc.p.pid)[1:]:
-            cl = procs.cmdline(pid)
-            if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
-                self.watch['the ROS master (rosmaster)'] = pid
-            elif '__name:=sim_world' in cl:
-                self.watch['the world node /sim_world'] = pid
 
     def _topic_types(self):
         try:
@@ -492,8 +325,7 @@ class Runner(Actions):
         topic = self.intake.undelivered()
         if topic is not None:
             return 'runner: %s' % topic
-        pids = [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
-        for pid in pids:
+        for pid in self.world.world_pids():
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
                 return 'bytes waiting on a socket of pid %d' % pid
         # a message off its socket, not yet through its callbacks: a receive thread of this
@@ -615,88 +447,23 @@ class Runner(Actions):
 
     def _on_timeout(self):
         self.timed_out = True
-        if self.host is not None:         # unblocks the embedded world's step
-            self.rospy.signal_shutdown('scenario timeout')
-        if self.world_proc is not None:   # unblocks a step_world call
-            self.world_proc.stop(grace=5.0)
+        self.world.interrupt('scenario timeout')
 
     def _start_world(self):
         deadline = time.monotonic() + min(self.sc.timeout, 120.0)
+        self.world.start(deadline)
         if self.warm is not None:
             # a farm's warm world: started over (or launched, for a new world) at sim time 0
             self.warm.prepare(self, deadline)
-            self.world_proc = self.warm.launch
-        elif self.embedded and self._start_embedded(deadline):
-            pass
-        elif not self.attach:
-            m = self._start_master(self._launch_world, deadline)
-            # roslaunch sets the launch file's parameters before it starts rosout: once
-            # rosout is there, the apps can start (and read them) while the world loads
-            while time.monotonic() < deadline and self.world_proc.alive():
-                try:
-                    m.lookupNode('/rosout')
-                    break
-                except Exception:  # noqa: BLE001 - not yet registered
-                    time.sleep(0.02)
+            self.world.proc = self.warm.launch
         # the apps' Python start-up overlaps the world's loading; start_apps waits for them
-        self.procs += self.apps.launch(self._own_pending)
+        self.apps.launch(self._own_pending)
         self._init_ros()
         if self.attach:
             self._world_settings()
         self._services()
-        self._wait_phones(deadline)
-        self._find_watched()
-
-    def _start_master(self, start, deadline, meanwhile=None):
-        """``start()`` (roslaunch or roscore: self.world_proc) on a free port until its
-        master answers; ``meanwhile()`` runs once while the first one starts. The master,
-        with /use_sim_time set: rospy reads it at init_node (the launch file sets it too,
-        maybe later), else this node would time messages by the wall clock."""
-        import rosgraph
-        for attempt in (1, 2):
-            if self.port is None or attempt == 2:
-                self.port = free_port()
-            start()
-            if attempt == 1 and meanwhile is not None:
-                meanwhile()
-            try:
-                self._wait_master(deadline)
-                break
-            except RunError:
-                # the free port was taken by another process between the check and the
-                # master's bind (parallel jobs): once more on a new port
-                if attempt == 2 or time.monotonic() >= deadline:
-                    raise
-                self.world_proc.stop(grace=2.0)
-        m = rosgraph.Master('/scenario_runner', master_uri=self._env()['ROS_MASTER_URI'])
-        m.setParam('/use_sim_time', True)
-        return m
-
-    def _start_embedded(self, deadline):
-        """A master of its own, the launch file's parameters and other nodes; the world
-        itself is built by _init_ros in this process (embed.py). False: the launch file
-        cannot be embedded and --embedded was not asked for (the master is gone again)."""
-        from .embed import plan_launch
-        path, args = self.launch_args()
-
-        def plan():          # roslaunch's loader (xacro) runs while the master starts
-            self.launch_plan = plan_launch(path, args, self.port)
-            if self.launch_plan.world is not None:
-                # and the renderer's imports (OpenCV: 0.2 s), which the world's first
-                # step_world needs when a camera has a subscriber (World.prepare_renderer)
-                import sim_world.render  # noqa: F401
-        m = self._start_master(self._start_roscore, deadline, meanwhile=plan)
-        if self.launch_plan.world is None:
-            if self.embed_required:
-                raise RunError('--embedded: %s' % self.launch_plan.why)
-            procs.kill_tree(self.world_proc)
-            self.procs.remove(self.world_proc)
-            self.world_proc, self.embedded = None, False
-            return False
-        self.launch_plan.set_params(m)
-        self.launch_procs = self.launch_plan.start_nodes(self._env(), self.run_dir)
-        self.procs += self.launch_procs
-        return True
+        self.world.wait_phones(deadline, self._check_world)
+        self.world.find_watched()
 
     def _run_live(self):
         self._start_world()
@@ -737,11 +504,7 @@ class Runner(Actions):
         return r
 
     def _world_stopped(self, e):
-        if self.world_proc is not None:      # roslaunch tears down after its node died
-            try:
-                self.world_proc.p.wait(15.0)
-            except subprocess.TimeoutExpired:
-                pass
+        self.world.stopped()                 # roslaunch tears down after its node died
         self._check_world()
         raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
                        % (self.t, e), self.world_log())
@@ -807,11 +570,9 @@ class Runner(Actions):
         # with the world or the master gone (roslaunch takes the master down with its
         # required world) each unregister would print 'unable to communicate with ROS
         # Master' once per topic; rospy's own clean-up at exit is one quiet call
-        gone = any(not procs.alive(pid) for pid in self.watch.values()) or (
-            self.world_proc is not None and not self.world_proc.alive())
+        gone = self.world.any_gone()
         self.intake.close(unregister=not gone)
-        for px in getattr(self, '_proxies', {}).values():
-            px.close()                   # the persistent connections to the world
+        self.world.close_proxies()
         if self.warm is not None and not gone:
             # the next scenario in this process starts its inputs afresh (sequence numbers)
             for pub in self.pubs.values():
@@ -820,25 +581,7 @@ class Runner(Actions):
                 except Exception:  # noqa: BLE001 - not a rospy publisher
                     pass
         self.storage_problems = self.recorder.close()   # storage faults: one line each
-        if self.warm is not None:
-            # the world stays for the next scenario; the apps get SIGINT and leave the
-            # graph while the next scenario's reload and apps start; their rospy exit
-            # (0.65 s) is not waited for (WarmHost.leave / settle)
-            names = {id(p): n for n, p in self.apps.procs}
-            self.warm.leave([(names.get(id(p)), p) for p in self.procs
-                             if p is not self.world_proc])
-            self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
-        elif self.embedded:
-            # the world is this process (it ends with it); its launch nodes and apps stop
-            # as a run's apps do, the master goes at once
-            procs.stop_run([p for p in self.procs if p is not self.world_proc])
-            if self.world_proc is not None:
-                procs.kill_tree(self.world_proc)
-            if self.world_logfile is not None:
-                self.world_logfile.close()    # its file stays for the log tails
-        else:
-            procs.stop_run([p for p in self.procs if p is not self.world_proc],
-                           self.world_proc, self.watch.get('the world node /sim_world'))
+        self.world.stop(self.apps.procs)     # a warm world stays for the next scenario
         if self.collector is not None:
             self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):

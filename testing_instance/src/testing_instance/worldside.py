@@ -1,0 +1,384 @@
+"""The run's side of the world: its master and world started, its services, its processes
+watched, its log.
+
+A run's world is one of four kinds, told by the runner's options:
+
+- **embedded** (the default, ``embed.py``): a roscore of the run's own; the launch file's
+  parameters set and its other nodes started; the World built in this process, whose node
+  this process becomes (``init_node``), and stepped through its services as function calls;
+- **launched** (``--world-node``, or a launch file that cannot be embedded): ``roslaunch``
+  of the launch file on a free port;
+- **warm** (a farm's worker, ``warm.WarmHost``): a master and a loaded world kept from the
+  last scenario, reset for this one;
+- **attached** (``--attach``, rostest): a world somebody else started; its seed and
+  real-time factor are read from it (``settings``).
+
+``connect`` waits for ``/gazebo/step_world`` and keeps one persistent proxy per service;
+``check`` names the first part of it that is gone (the master, the world node, the embedded
+world's thread) as the run's ERROR, with the log tail (``log_tail``); ``stop`` ends what the
+run started (a warm world stays)."""
+import os
+import subprocess
+import time
+
+from sim_world.netutil import wait_for_service
+
+from . import procs
+from .procs import Proc, free_port, tail
+from .results import RunError
+
+__all__ = ['WorldSide']
+
+
+class WorldSide(object):
+    def __init__(self, sc, run_dir, port=None, attach=False, embedded=False,
+                 embed_required=False, warm=None, launch_args=None):
+        """launch_args(): (launch file, [arguments]) of the scenario's world (the runner's,
+        with the seed and real-time factor of the run)."""
+        self.sc = sc
+        self.run_dir = run_dir
+        self.port = port
+        self.attach = attach
+        self.embedded = embedded
+        self.embed_required = embed_required
+        self.warm = warm
+        self.launch_args = launch_args
+        self.proc = None           # the world's process: roslaunch, roscore (embedded,
+                                   # replay) or the warm world's launch
+        self.launch_procs = []     # embedded: the launch file's other nodes
+        self.launch_plan = None    # embedded: embed.LaunchPlan
+        self.host = None           # embedded: the sim_world WorldHost
+        self.failed = []           # embedded: the world thread's exception, once it died
+        self.logfile = None        # embedded: the world's log lines (embed.LogFile)
+        self.watch = {}            # what (e.g. 'the world node /sim_world') -> pid
+        self.rospy = None
+        self.node = None           # the caller id serving /gazebo/step_world
+        self.srv_types = {}
+        self._proxies = {}
+
+    # -- processes -------------------------------------------------------------------------
+    def env(self):
+        """The environment of the run's processes (its master, its log folder)."""
+        return procs.ros_env(os.path.join(self.run_dir, 'log'),
+                             None if self.attach else self.port)
+
+    def master_uri(self):
+        return self.env()['ROS_MASTER_URI']
+
+    def start(self, deadline):
+        """Start (or reuse, or find) the master and the world; returns once the master
+        answers. The world itself may still be loading (``connect`` waits for it)."""
+        if self.warm is not None:
+            return     # WarmHost.prepare, called by the runner once its node can be made
+        if self.embedded and self._start_embedded(deadline):
+            return
+        if not self.attach:
+            m = self.start_master(self._launch, deadline)
+            # roslaunch sets the launch file's parameters before it starts rosout: once
+            # rosout is there, the apps can start (and read them) while the world loads
+            while time.monotonic() < deadline and self.proc.alive():
+                try:
+                    m.lookupNode('/rosout')
+                    break
+                except Exception:  # noqa: BLE001 - not yet registered
+                    time.sleep(0.02)
+
+    def _launch(self):
+        path, args = self.launch_args()
+        cmd = ['roslaunch', '-p', str(self.port), path] + args
+        self.proc = Proc(cmd, self.env(), os.path.join(self.run_dir, 'world.log'))
+
+    def start_roscore(self):
+        """A master (and rosout) of the run's own: embedded, or a replay's."""
+        self.proc = Proc(['roscore', '-p', str(self.port)], self.env(),
+                         os.path.join(self.run_dir, 'roscore.log'))
+
+    def wait_master(self, deadline):
+        import rosgraph
+        m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
+        while time.monotonic() < deadline:
+            if self.proc is not None and not self.proc.alive():
+                raise RunError('the world exited while starting (code %s)'
+                               % self.proc.p.returncode, self.log_tail())
+            try:
+                # getSystemState: only a master answers it (getPid is any node's API, and a
+                # node of another job may hold this port for a moment)
+                m.getSystemState()
+                return
+            except Exception:  # noqa: BLE001 - not up yet
+                time.sleep(0.02)
+        raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
+                                                           self.sc.timeout), self.log_tail())
+
+    def start_master(self, start, deadline, meanwhile=None):
+        """``start()`` (roslaunch or roscore: self.proc) on a free port until its master
+        answers; ``meanwhile()`` runs once while the first one starts. The master, with
+        /use_sim_time set: rospy reads it at init_node (the launch file sets it too, maybe
+        later), else this node would time messages by the wall clock."""
+        import rosgraph
+        for attempt in (1, 2):
+            if self.port is None or attempt == 2:
+                self.port = free_port()
+            start()
+            if attempt == 1 and meanwhile is not None:
+                meanwhile()
+            try:
+                self.wait_master(deadline)
+                break
+            except RunError:
+                # the free port was taken by another process between the check and the
+                # master's bind (parallel jobs): once more on a new port
+                if attempt == 2 or time.monotonic() >= deadline:
+                    raise
+                self.proc.stop(grace=2.0)
+        m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
+        m.setParam('/use_sim_time', True)
+        return m
+
+    def _start_embedded(self, deadline):
+        """A master of its own, the launch file's parameters and other nodes; the world
+        itself is built by init_node in this process (embed.py). False: the launch file
+        cannot be embedded and --embedded was not asked for (the master is gone again)."""
+        from .embed import plan_launch
+        path, args = self.launch_args()
+
+        def plan():          # roslaunch's loader (xacro) runs while the master starts
+            self.launch_plan = plan_launch(path, args, self.port)
+            if self.launch_plan.world is not None:
+                # and the renderer's imports (OpenCV: 0.2 s), which the world's first
+                # step_world needs when a camera has a subscriber (World.prepare_renderer)
+                import sim_world.render  # noqa: F401
+        m = self.start_master(self.start_roscore, deadline, meanwhile=plan)
+        if self.launch_plan.world is None:
+            if self.embed_required:
+                raise RunError('--embedded: %s' % self.launch_plan.why)
+            procs.kill_tree(self.proc)
+            self.proc, self.embedded = None, False
+            return False
+        self.launch_plan.set_params(m)
+        self.launch_procs = self.launch_plan.start_nodes(self.env(), self.run_dir)
+        return True
+
+    # -- this process's node ---------------------------------------------------------------
+    def init_node(self, rospy, on_message):
+        """This process's ROS node: embedded, the world node with the World in it (its
+        messages handed to ``on_message`` in the world's thread); else /scenario_runner."""
+        import rospy.core
+        self.rospy = rospy
+        if self.embedded:
+            # one rospy process is one node: the runner is the world node (embed.py)
+            argv = self.launch_plan.world_argv()
+            # rospy takes a node's namespace from ROS_NAMESPACE or this process's own argv
+            # when it is imported, never from init_node's argv (__ns:=): set it as
+            # roslaunch's ROS_NAMESPACE would (not in the environment: the apps inherit it)
+            import rospy.names
+            rospy.names._set_caller_id(self.launch_plan.world_namespace() + 'unnamed')
+            rospy.init_node(self.launch_plan.world.name, argv=argv, disable_signals=True)
+            self._embed(argv, on_message)
+        elif not rospy.core.is_initialized():    # a warm worker's runners share the node
+            rospy.init_node('scenario_runner', disable_signals=True)
+
+    def _embed(self, argv, on_message):
+        """Build the launch file's world in this process and start its loop thread, as the
+        sim_world executable does (sim_world.node)."""
+        from sim_world.node import SetupError, host_from_params
+        from .embed import LogFile
+        self.logfile = LogFile(os.path.join(self.run_dir, 'world.log'))
+        try:
+            # the node's own argv: without its remappings, as rospy.myargv gives it
+            self.host = host_from_params(self.rospy.myargv(argv))
+        except SetupError as e:
+            raise RunError('the embedded world %s: %s' % (self.launch_plan.world_name, e),
+                           self.log_tail())
+        except Exception as e:  # noqa: BLE001 - a plugin's failure while loading: the run's
+            import traceback    # ERROR (the sim_world node would have died with it)
+            raise RunError('the embedded world %s could not be built: %s: %s'
+                           % (self.launch_plan.world_name, type(e).__name__, e),
+                           self.log_tail() + traceback.format_exc().splitlines()[-12:])
+        # the world's messages reach the intake in the world's own thread (no delivery thread
+        # woken per message, no GIL hand-off): the runner waits for the step anyway
+        from sim_world import fastpub
+        fastpub.deliver_inline(on_message)
+        _thread, self.failed = self.host.start()
+
+    def settings(self):
+        """Attached: (seed or None, real-time factor or None) of the running world."""
+        try:
+            seed = self.rospy.get_param('/sim_world/seed', '')
+            rtf = self.rospy.get_param('/sim_world/real_time_factor', None)
+            return (int(seed) if str(seed).strip() else None,
+                    float(rtf) if rtf is not None else None)
+        except (ValueError, TypeError, OSError):
+            return None, None
+
+    # -- the world's services --------------------------------------------------------------
+    def connect(self, check):
+        """Wait for /gazebo/step_world (``check()`` raises when a process is gone); the
+        step and get-state proxies; the node serving them (``node``)."""
+        from mobile_device_sim.srv import (DeleteModel, GetModelState, InjectTouch,
+                                           PressButton, SetEnvironment, SetModelState,
+                                           SetSensorFault, SpawnModel, StepWorld)
+        self.srv_types = dict(step=StepWorld, get=GetModelState, set=SetModelState,
+                              env=SetEnvironment, fault=SetSensorFault, spawn_urdf=SpawnModel,
+                              spawn_sdf=SpawnModel, delete=DeleteModel, touch=InjectTouch,
+                              button=PressButton)
+        self.step_srv = self.proxy('/gazebo/step_world', StepWorld)
+        self.get_state = self.proxy('/gazebo/get_model_state', GetModelState)
+        if not wait_for_service('/gazebo/step_world', timeout=self.sc.timeout,
+                                caller=self.rospy.get_name(), give_up=self.gone):
+            check()
+            raise RunError('the world did not offer /gazebo/step_world within %g s'
+                           % self.sc.timeout, self.log_tail())
+        import rosgraph
+        try:
+            _p, _s, services = rosgraph.Master('/scenario_runner').getSystemState()
+            self.node = next((ns[0] for name, ns in services
+                              if name == '/gazebo/step_world' and ns), None)
+        except Exception:  # noqa: BLE001 - counted topics then fall back to a quiet period
+            self.node = None
+        return self.node
+
+    def gone(self):
+        """The world's process (roslaunch of a cold run, a warm world's) has exited."""
+        return self.proc is not None and not self.proc.alive()
+
+    def proxy(self, name, typ):
+        """A persistent proxy of the world's service ``name``: one connection for the run
+        (a new one per call cost a master lookup, a TCP handshake and a handler thread in
+        the world: 30 % of a walking scenario's timeline), and no TIME_WAIT sockets for
+        the app watch's /proc/net/tcp walks to step over."""
+        if name not in self._proxies:
+            local = None
+            if self.embedded:       # the world's services are this process's: a call
+                from .embed import local_service
+                local = local_service(name)
+            self._proxies[name] = local or self.rospy.ServiceProxy(name, typ,
+                                                                   persistent=True)
+        return self._proxies[name]
+
+    def wait_phones(self, deadline, check):
+        for ph in self.sc.phones[:1] if not self.attach else self.sc.phones:
+            while True:
+                check()
+                try:
+                    if self.get_state(ph['ns'], '').success:
+                        break
+                except Exception:  # noqa: BLE001 - service not yet there
+                    pass
+                if time.monotonic() > deadline:
+                    raise RunError('phone model %r did not appear' % ph['ns'],
+                                   self.log_tail())
+                time.sleep(0.05)
+
+    def stopped(self):
+        """After a failed step: give roslaunch the time to tear down after its node died."""
+        if self.proc is not None:
+            try:
+                self.proc.p.wait(15.0)
+            except subprocess.TimeoutExpired:
+                pass
+
+    # -- watching --------------------------------------------------------------------------
+    def find_watched(self):
+        """The master and the world node below roslaunch: watched by pid (roslaunch keeps
+        running when its master dies)."""
+        if self.warm is not None:
+            self.watch.update(self.warm.watched())
+            return
+        if self.proc is None:
+            return
+        for pid in procs.descendants(self.proc.p.pid)[1:]:
+            cl = procs.cmdline(pid)
+            if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
+                self.watch['the ROS master (rosmaster)'] = pid
+            elif '__name:=sim_world' in cl:
+                self.watch['the world node /sim_world'] = pid
+
+    def world_pids(self):
+        """The pids of the world's node (this process, embedded)."""
+        return [os.getpid()] + [p for w, p in self.watch.items() if 'world' in w]
+
+    def check(self, fault_t):
+        """Every part of the world still there? An error naming the first one that is not,
+        at sim time ``fault_t()``, with its log tail."""
+        for what, pid in self.watch.items():
+            if not procs.alive(pid):
+                raise RunError('%s died at sim time %.3f s (%s, pid %d, is gone)' % (
+                    'the ROS master' if 'master' in what else 'the world', fault_t(),
+                    what, pid),
+                    self.log_tail() + self._ros_log(what))
+        if self.host is not None and self.failed:
+            e = self.failed[0]
+            raise RunError('the embedded world stopped at sim time %.3f s: %s: %s'
+                           % (fault_t(), type(e).__name__, e), self.log_tail())
+        if self.host is not None and self.rospy.is_shutdown():
+            raise RunError('the world node %s (embedded in this run) was shut down at sim '
+                           'time %.3f s (rosnode kill?)' % (self.launch_plan.world_name,
+                                                            fault_t()), self.log_tail())
+        if self.proc is not None and not self.proc.alive():
+            raise RunError('the %s died at sim time %.3f s (exit code %s)'
+                           % ('ROS master (roscore)' if self.embedded else 'world',
+                              fault_t(), self.proc.p.returncode), self.log_tail())
+
+    def any_gone(self):
+        """Is the master or the world gone (roslaunch takes the master down with its
+        required world)?"""
+        return any(not procs.alive(pid) for pid in self.watch.values()) or self.gone()
+
+    def interrupt(self, why):
+        """The watchdog fired: unblock a step the world will never answer."""
+        if self.host is not None:          # the embedded world's step
+            self.rospy.signal_shutdown(why)
+        if self.proc is not None:          # a step_world call
+            self.proc.stop(grace=5.0)
+
+    def log_tail(self):
+        """The last lines of the world's log (the run's ERRORs show them)."""
+        if self.logfile is not None:
+            # the embedded world's lines, then the last ones of the launch file's other nodes
+            # (what roslaunch's output would have shown after them)
+            lines = self.logfile.tail()
+            for p in self.launch_procs:
+                lines += ['%s:' % os.path.basename(p.log_path)] + tail(p.log_path, 8)
+            return lines
+        if self.warm is not None:
+            return self.warm.log_tail()
+        if self.proc is not None:
+            return tail(self.proc.log_path)
+        return []
+
+    def _ros_log(self, what):
+        """The log tail of the ROS log of a watched process (rosmaster: master.log)."""
+        d = os.path.join(self.run_dir, 'log')
+        key = 'master' if 'master' in what else what.rsplit('/', 1)[-1]
+        lines = []
+        for root, _dirs, files in os.walk(d):
+            for f in sorted(files):
+                if f.startswith(key) and f.endswith('.log'):
+                    lines += ['%s:' % f] + tail(os.path.join(root, f), 10)
+        return lines
+
+    # -- the end ---------------------------------------------------------------------------
+    def close_proxies(self):
+        for px in self._proxies.values():
+            px.close()                   # the persistent connections to the world
+
+    def stop(self, apps):
+        """End the run's processes: ``apps`` [(node name, Proc)] and what this side started.
+        A warm world stays for the next scenario."""
+        if self.warm is not None:
+            # the apps get SIGINT and leave the graph while the next scenario's reload and
+            # apps start; their rospy exit (0.65 s) is not waited for (WarmHost.leave)
+            self.warm.leave(apps)
+            self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
+        elif self.embedded:
+            # the world is this process (it ends with it); its launch nodes and apps stop
+            # as a run's apps do, the master goes at once
+            procs.stop_run(self.launch_procs + [p for _n, p in apps])
+            if self.proc is not None:
+                procs.kill_tree(self.proc)
+            if self.logfile is not None:
+                self.logfile.close()     # its file stays for the log tails
+        else:
+            procs.stop_run([p for _n, p in apps], self.proc,
+                           self.watch.get('the world node /sim_world'))

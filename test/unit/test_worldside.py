@@ -121,3 +121,37 @@ def test_stop_ends_a_launched_worlds_apps_and_launch(tmp_path):
     ws.stop([('/app0', app)])
     assert not app.alive() and not ws.proc.alive()
     assert not procs.alive(app.p.pid)
+
+
+def test_the_master_and_the_world_node_are_found_below_roslaunch(tmp_path):
+    """find_watched: the rosmaster and the sim_world node below the world's process, by
+    their command lines (roslaunch keeps running when either dies: they are watched)."""
+    (tmp_path / 'rosmaster').write_text('import time\ntime.sleep(60)\n')
+    launcher = tmp_path / 'launch.py'
+    launcher.write_text(
+        'import subprocess, sys, time\n'
+        'a = subprocess.Popen([sys.executable, %r, "--core"])\n'
+        'b = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", '
+        '"__name:=sim_world"])\n'
+        'print(a.pid, b.pid, flush=True)\n'
+        'time.sleep(60)\n' % str(tmp_path / 'rosmaster'))
+    ws = WorldSide(_sc(), str(tmp_path), port=1)
+    ws.proc = Proc([sys.executable, str(launcher)], dict(os.environ), str(tmp_path / 'l.log'))
+    try:
+        import time
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and not open(str(tmp_path / 'l.log')).read():
+            time.sleep(0.02)
+        master, node = (int(x) for x in open(str(tmp_path / 'l.log')).read().split())
+        ws.find_watched()
+        assert ws.watch == {procs.MASTER: master, procs.WORLD_NODE: node}
+        ws.check(lambda: 0.0)                     # all alive
+        os.kill(node, 9)
+        deadline = time.monotonic() + 10
+        while procs.alive(node) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        with pytest.raises(RunError, match='the world died at sim time 0.500 s '
+                                           r'\(the world node /sim_world, pid %d' % node):
+            ws.check(lambda: 0.5)
+    finally:
+        procs.kill_tree(ws.proc)

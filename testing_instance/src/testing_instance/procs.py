@@ -185,6 +185,27 @@ def carrying(marker):
     return out
 
 
+MASTER = 'the ROS master (rosmaster)'
+WORLD_NODE = 'the world node /sim_world'
+
+
+def master_and_world(*procs):
+    """{MASTER: pid, WORLD_NODE: pid} of the rosmaster and the sim_world node found below
+    the processes ``procs`` (Proc or None: roscore, roslaunch), to be watched by pid
+    (roslaunch keeps running when its master dies)."""
+    out = {}
+    for proc in procs:
+        if proc is None:
+            continue
+        for pid in descendants(proc.p.pid)[1:]:
+            cl = cmdline(pid)
+            if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
+                out[MASTER] = pid
+            elif '__name:=sim_world' in cl:
+                out[WORLD_NODE] = pid
+    return out
+
+
 def cmdline(pid):
     try:
         with open('/proc/%d/cmdline' % pid, 'rb') as f:

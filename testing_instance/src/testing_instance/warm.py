@@ -232,17 +232,7 @@ class WarmHost(object):
 
     def watched(self):
         """{what: pid} of the master and the world node (Runner._check_world)."""
-        out = {}
-        for proc in (self.core, self.launch):
-            if proc is None:
-                continue
-            for pid in procs.descendants(proc.p.pid)[1:]:
-                cl = procs.cmdline(pid)
-                if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
-                    out['the ROS master (rosmaster)'] = pid
-                elif '__name:=sim_world' in cl:
-                    out['the world node /sim_world'] = pid
-        return out
+        return procs.master_and_world(self.core, self.launch)
 
     # -- the master and the world --------------------------------------------------------
     def _master(self):

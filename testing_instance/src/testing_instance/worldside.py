@@ -282,17 +282,8 @@ class WorldSide(object):
     def find_watched(self):
         """The master and the world node below roslaunch: watched by pid (roslaunch keeps
         running when its master dies)."""
-        if self.warm is not None:
-            self.watch.update(self.warm.watched())
-            return
-        if self.proc is None:
-            return
-        for pid in procs.descendants(self.proc.p.pid)[1:]:
-            cl = procs.cmdline(pid)
-            if any(os.path.basename(a) == 'rosmaster' for a in cl[:2]):
-                self.watch['the ROS master (rosmaster)'] = pid
-            elif '__name:=sim_world' in cl:
-                self.watch['the world node /sim_world'] = pid
+        self.watch.update(self.warm.watched() if self.warm is not None
+                          else procs.master_and_world(self.proc))
 
     def world_pids(self):
         """The pids of the world's node (this process, embedded)."""
@@ -381,4 +372,4 @@ class WorldSide(object):
                 self.logfile.close()     # its file stays for the log tails
         else:
             procs.stop_run([p for _n, p in apps], self.proc,
-                           self.watch.get('the world node /sim_world'))
+                           self.watch.get(procs.WORLD_NODE))

@@ -24,11 +24,10 @@ The Runner is the loop; each of its jobs is an object of its own module:
 - ``intake.Intake``: the subscriptions and each message's sim time, into the
   ``inbox.Inbox`` (the slice's messages for the expectations) and the
   ``recording.Recorder`` (``--record``);
-- ``timeline``: the agenda and the slice rule (pure); ``clock``: the world's lockstep or a
+- ``timeline``: the agenda, the `when` conditions and the slice rule (pure); ``clock``: the world's lockstep or a
   recording's replay; ``actions.Actions``: the timeline's actions; ``expect``: the
   expectations' verdicts; ``results``: the result and JUnit.
 """
-import math
 import os
 import shutil
 import sys
@@ -40,14 +39,14 @@ from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
 from .apps import Apps
 from .clock import WorldClock
-from .expect import Expectation, FieldError, Predicate, Verdict, get_field
+from .expect import Expectation, FieldError, Verdict  # noqa: F401 - Verdict re-exported
 from .inbox import Inbox
 from .intake import Intake
 from .procs import free_port  # noqa: F401 - re-exported
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC, Recorder  # noqa: F401
 from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
 from .scenario import ScenarioError, load
-from .timeline import Agenda, next_stop
+from .timeline import Agenda, ConditionError, Conditions, next_stop
 from .worldside import WorldSide
 
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
@@ -93,11 +92,10 @@ class Runner(Actions):
         self.intake = Intake(self.inbox, self.recorder, self.say, self.debug)
         self.apps = Apps(scenario, self.world.env, self.run_dir, self.say)
         self.storage_problems = []      # lines of the recording's storage faults
-        self.event_times = {}
+        self.conditions = Conditions(scenario.timeline)   # the `when`s; what happened when
         self.timed_out = False
         self.env_values = {}
         self.pubs = {}
-        self.cond_hits = {}
         self.t = 0.0
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
         self.published = None      # {topic: n} the world handed us, from the last step
@@ -108,7 +106,7 @@ class Runner(Actions):
     # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
     def start_after(self, event_id, t):
         """Timeline event event_id happened at sim time t: start the windows after it."""
-        self.event_times.setdefault(event_id, t)
+        self.conditions.happen(event_id, t)
         for e in self.expectations:
             if e.after == event_id:
                 e.start(t)
@@ -129,6 +127,11 @@ class Runner(Actions):
         for e in self.expectations:
             if e.topic not in self.intake.subs and e.verdict is None:
                 e.error('topic %s %s' % (e.topic, why))
+
+    @property
+    def event_times(self):
+        """{event id: sim time it happened} (the report's timeline)."""
+        return self.conditions.happened
 
     @property
     def world_node(self):
@@ -231,10 +234,8 @@ class Runner(Actions):
         want = {}
         for e in self.expectations:
             want.setdefault(e.topic, 'expect')
-        for ev in self.sc.timeline:
-            w = ev.get('when')
-            if isinstance(w, dict) and 'topic' in w:
-                want.setdefault(w['topic'], 'condition')
+        for topic in self.conditions.topics():
+            want.setdefault(topic, 'condition')
         if self.recorder.active:
             types = self.intake.topic_types
             prefixes = ['/%s/' % ph['ns'].strip('/') for ph in self.sc.phones]
@@ -265,8 +266,7 @@ class Runner(Actions):
         subs = self.intake.subs
         if any(e.topic not in subs and e.verdict is None for e in self.expectations):
             return True
-        return any(isinstance(ev['when'], dict) and ev['when'].get('topic') not in subs
-                   for ev in self.pending_conditions() if 'topic' in ev['when'])
+        return self.conditions.unsubscribed(subs)
 
     def _check_fields(self, topic, cls):
         proto = cls()
@@ -339,8 +339,10 @@ class Runner(Actions):
         for t, _s, topic, msg in self.inbox.take():
             for e in self.by_topic.get(topic, ()):
                 e.feed(t, msg)
-            for ev in self.cond_by_topic.get(topic, ()):
-                self._cond_msg(ev, t, msg)
+            try:
+                self.conditions.feed(topic, t, msg)
+            except ConditionError as e:
+                raise RunError(str(e))
             if self.collector is not None:
                 self.collector.feed(t, topic, msg)
             if topic == '/gazebo/environment':
@@ -352,9 +354,8 @@ class Runner(Actions):
 
     def _fire(self, ev, t):
         """Event ev triggers at sim time t: schedule its action and what waits for it."""
-        if ev['id'] in self.event_times:
+        if not self.conditions.happen(ev['id'], t):
             return
-        self.event_times[ev['id']] = t
         self.say('  t=%.3f s: %s (%s)' % (t, ev['id'], ev['action']))
         self.recorder.event(t, 'event', id=ev['id'], action=ev['action'])
         self._do_action(ev, t)
@@ -366,39 +367,18 @@ class Runner(Actions):
                 ot = t + float(other.get('delay', 0.0))
                 self._push(ot, lambda tt, o=other: self._fire(o, tt), other['id'])
 
-    def _cond_msg(self, ev, t, msg):
-        c = ev['when']
-        if ev['id'] in self.event_times or ev['id'] in self.cond_hits:
-            return
-        pred = Predicate({k: v for k, v in c.items() if k not in ('topic', 'field')})
-        try:
-            v = get_field(msg, c.get('field'))
-            if pred.is_image:
-                v = pred.image_facts(v)
-        except FieldError as err:
-            raise RunError('%s.when: %s' % (ev['id'], err))
-        if pred.test(v):
-            self.cond_hits[ev['id']] = t
-
     def _check_conditions(self):
-        for ev in self.pending_conditions():
-            if ev['id'] in self.cond_hits:
-                self._fire(ev, self.t)
-                continue
-            reach = ev['when'].get('reach')
-            if reach:
-                res = self.get_state(reach['model'], '')
-                if not res.success:
-                    raise RunError('%s.when.reach: %s' % (ev['id'], res.status_message))
-                p = res.pose.position
-                d = math.sqrt(sum((a - b) ** 2 for a, b in zip(
-                    (p.x, p.y, p.z), reach['position'])))
-                if d <= float(reach.get('tolerance', 0.1)):
-                    self._fire(ev, self.t)
+        """Fire the events whose `when` holds at the end of this slice."""
+        for ev in self.conditions.due(self._position):
+            self._fire(ev, self.t)
 
-    def pending_conditions(self):
-        return [ev for ev in self.sc.timeline if 'when' in ev
-                and ev['id'] not in self.event_times]
+    def _position(self, event_id, model):
+        """(x, y, z) of ``model`` now (a reach condition of event ``event_id``)."""
+        res = self.get_state(model, '')
+        if not res.success:
+            raise RunError('%s.when.reach: %s' % (event_id, res.status_message))
+        p = res.pose.position
+        return p.x, p.y, p.z
 
     # -- the run ---------------------------------------------------------------------------
     def run(self):
@@ -407,11 +387,6 @@ class Runner(Actions):
         self.by_topic = {}
         for e in self.expectations:
             self.by_topic.setdefault(e.topic, []).append(e)
-        self.cond_by_topic = {}
-        for ev in self.sc.timeline:
-            w = ev.get('when')
-            if isinstance(w, dict) and 'topic' in w:
-                self.cond_by_topic.setdefault(w['topic'], []).append(ev)
         self.agenda = Agenda()
         if self.report_dir:
             from .report import Collector
@@ -524,13 +499,13 @@ class Runner(Actions):
             if self.t >= end - 5e-4:
                 break
             nxt = next_stop(self.t, end, self.sc.slice if self.sc.apps else MAX_SLICE,
-                            self.agenda.next_time(), bool(self.pending_conditions()),
+                            self.agenda.next_time(), bool(self.conditions.pending()),
                             self.sc.slice)
             self.t = step_to(nxt)
             # wait for the slice's messages when a topic condition waits for them, and at
             # least every settle_every s of sim time (so apps keep up); short motion slices
             # in between only step (sim-time rule: the same slices settle in every run)
-            if any('topic' in ev['when'] for ev in self.pending_conditions()) or \
+            if self.conditions.wait_for_messages() or \
                     self.t - last_settle >= settle_every - 1e-9:
                 self._sync()
                 last_settle = self.t

@@ -139,8 +139,8 @@ def run_one(a, path, out=None, **kw):
 
 
 def world_key_of(argv):
-    """The world (testing_instance.runner.world_key) a run_scenario command line needs."""
-    from .runner import world_key
+    """The world (testing_instance.worldside.world_key) a run_scenario command line needs."""
+    from .worldside import world_key
     a, sc = _scenario_of(argv)
     return world_key(sc, a.report)
 

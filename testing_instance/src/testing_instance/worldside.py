@@ -27,7 +27,13 @@ from . import procs
 from .procs import Proc, free_port, tail
 from .results import RunError
 
-__all__ = ['WorldSide']
+__all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
+
+PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                         '..', '..', '..'))
+LAUNCHES = {
+    'office': os.path.join(PKG_ROOT, 'sim_world', 'launch', 'office.launch'),
+}
 
 
 class WorldSide(object):
@@ -373,3 +379,46 @@ class WorldSide(object):
         else:
             procs.stop_run([p for _n, p in apps], self.proc,
                            self.watch.get(procs.WORLD_NODE))
+
+
+def launch_args(sc, seed, rtf, report=None):
+    """(launch file, [its arguments]) of scenario ``sc``'s world: what makes the world
+    (``world_key``) and what only sets its start (the seed, the real-time factor and the
+    office phone's pose, which a warm world takes from /gazebo/reload_world)."""
+    w = sc.world
+    launch = w.get('launch', 'office')
+    path = LAUNCHES.get(launch) or sc.resolve(launch)
+    if not os.path.isfile(path):
+        raise RunError('world.launch: no launch file %s (expected office or a path to a '
+                       '.launch file)' % path)
+    args = ['paused:=true', 'seed:=%d' % seed, 'real_time_factor:=%g' % rtf,
+            'physics:=%s' % w.get('physics', 'ode')]
+    if launch == 'office':
+        # the report shows the spectator view: the flycam at 1 frame per sim second
+        args += ['flycam:=true', 'flycam_rate:=1'] if report else ['flycam:=false']
+        args += ['phone_%s:=%r' % kv for kv in sorted(start_pose(sc).items())]
+    if 'max_step_size' in w:
+        args.append('max_step_size:=%r' % w['max_step_size'])
+    for k, v in (w.get('args') or {}).items():
+        args.append('%s:=%s' % (k, str(v).lower() if isinstance(v, bool) else v))
+    return path, args
+
+
+def start_pose(sc):
+    """The office launch's phone_x, phone_y, phone_z, phone_yaw scenario ``sc`` sets."""
+    if sc.world.get('launch', 'office') != 'office':
+        return {}
+    ph, pose = sc.phones[0], {}
+    if 'position' in ph:
+        pose.update(zip('xyz', ph['position']))
+    if 'rpy' in ph:
+        pose['yaw'] = ph['rpy'][2]
+    return pose
+
+
+def world_key(sc, report=None):
+    """What a warm world must have been launched with to serve scenario ``sc``: its launch
+    file and arguments, but for the seed, the real-time factor and the phone's pose."""
+    path, args = launch_args(sc, 0, 1.0, report)
+    return (os.path.abspath(path),) + tuple(
+        a for a in args if not a.startswith(('seed:=', 'real_time_factor:=', 'phone_')))

@@ -104,3 +104,23 @@ def test_every_scenario_action_has_its_method_in_actions():
     assert {'walk', 'publish', 'fault', 'set_environment'} <= methods
     if names is not None:
         assert set(names) <= methods
+
+
+def test_an_actions_publisher_is_woken_by_its_subscriber_connecting_not_by_polling():
+    import threading
+    import time
+    from testing_instance.actions import _Connected
+    c, n = _Connected(), [0]
+
+    def connect():
+        time.sleep(0.05)
+        n[0] = 1
+        c.peer_subscribe('/charger', None, None)
+    th = threading.Thread(target=connect)
+    t0 = time.monotonic()
+    th.start()
+    assert c.wait(lambda: n[0], 10.0)
+    assert time.monotonic() - t0 < 5.0
+    th.join()
+    assert c.wait(lambda: n[0], 0.0)                 # already connected: at once
+    assert not _Connected().wait(lambda: 0, 0.05)    # nobody: gives up at the timeout

@@ -6,7 +6,7 @@ push their steps on the runner's agenda. Mixed into ``Runner``, which provides t
 proxies, publishers and agenda.
 """
 import subprocess
-import time
+import threading
 
 from . import motion
 from .results import RunError
@@ -21,6 +21,26 @@ def _set_field(msg, path, value):
         obj = getattr(obj, p)
     setattr(obj, parts[-1], type(getattr(obj, parts[-1]))(value))
 
+
+
+class _Connected(object):
+    """rospy.SubscribeListener of an action's publisher: wakes ``wait`` when a subscriber
+    connects (rospy calls peer_subscribe once the connection is added)."""
+
+    def __init__(self):
+        self._cv = threading.Condition()
+
+    def peer_subscribe(self, _topic, _publish, _publish_single):
+        with self._cv:
+            self._cv.notify_all()
+
+    def peer_unsubscribe(self, _topic, _num_peers):
+        pass
+
+    def wait(self, count, timeout):
+        """Until count() > 0 (a subscriber is connected), at most ``timeout`` s."""
+        with self._cv:
+            return self._cv.wait_for(lambda: count() > 0, timeout)
 
 
 class Actions(object):
@@ -66,14 +86,17 @@ class Actions(object):
         import rospy
         key = (topic, cls._type)
         if key not in self.pubs:
-            self.pubs[key] = rospy.Publisher(topic, cls, queue_size=100, latch=latch)
+            connected = _Connected()
+            self.pubs[key] = rospy.Publisher(topic, cls, queue_size=100, latch=latch,
+                                             subscriber_listener=connected)
+            self.pubs[key].connected = connected
         return self.pubs[key]
 
     def _publish(self, topic, msg):
+        """Publish once a subscriber (an app) is connected, at most 5 s of wall time later:
+        woken by rospy's SubscribeListener as it connects, not by polling."""
         pub = self._publisher(topic, type(msg))
-        deadline = time.monotonic() + 5.0
-        while pub.get_num_connections() == 0 and time.monotonic() < deadline:
-            time.sleep(0.02)
+        pub.connected.wait(pub.get_num_connections, 5.0)
         pub.publish(msg)
 
     def _spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):

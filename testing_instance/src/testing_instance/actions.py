@@ -52,7 +52,7 @@ class Actions(object):
         try:
             res = self.proxy(name, typ)(*args)
         except Exception as e:  # noqa: BLE001 - service missing or the world died
-            self._check_world()
+            self.check_world()
             raise RunError('%s (%s): service %s failed: %s' % (ev['id'], ev['action'], name, e),
                            self.world_log())
         if hasattr(res, 'success') and not res.success:

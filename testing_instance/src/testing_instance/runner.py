@@ -118,6 +118,8 @@ class Runner(Actions):
     get_state = property(lambda self: self.world.get_state)
     proxy = property(lambda self: self.world.proxy)
     world_log = property(lambda self: self.world.log_tail)
+    start_roscore = property(lambda self: self.world.start_roscore)   # a replay's master
+    wait_master = property(lambda self: self.world.wait_master)
 
     def missing_topics_are_errors(self, why):
         for e in self.expectations:
@@ -133,13 +135,6 @@ class Runner(Actions):
     def world_node(self):
         """The caller id serving /gazebo/step_world (None: no world node, a replay)."""
         return self.intake.world_node
-
-    start_roscore = property(lambda self: self.world.start_roscore)
-    wait_master = property(lambda self: self.world.wait_master)
-    init_ros = property(lambda self: self._init_ros)
-    check_world = property(lambda self: self._check_world)
-    settle = property(lambda self: self._settle)
-    drain = property(lambda self: self._drain)
 
     def open_recording(self):
         """--record: .bag a rosbag, .mcap an MCAP file (ROS 1), a list all of them."""
@@ -172,7 +167,7 @@ class Runner(Actions):
         return world_key(self.sc, self.report_dir)
 
     # -- ROS side --------------------------------------------------------------------------
-    def _init_ros(self):
+    def init_ros(self):
         os.environ.update({k: v for k, v in self.world.env().items()
                            if k in ('ROS_MASTER_URI', 'ROS_HOSTNAME')})
         import rospy
@@ -187,7 +182,7 @@ class Runner(Actions):
         self.rtf = self.rtf if rtf is None else rtf
 
     def _services(self):
-        self.intake.world_node = self.world.connect(self._check_world)
+        self.intake.world_node = self.world.connect(self.check_world)
         self.step_srv = self.world.step_srv
 
     def _spawn_more_phones(self):
@@ -196,7 +191,7 @@ class Runner(Actions):
             self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
                         ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))
 
-    def _check_world(self):
+    def check_world(self):
         """Every process of the run still there? An error naming the first one that is not,
         with its log tail (also the apps: an app that exits 0 has finished, one that exits
         otherwise or is killed crashed)."""
@@ -218,7 +213,7 @@ class Runner(Actions):
         try:
             return self.intake.published_types()
         except Exception as e:  # noqa: BLE001 - OSError, rosgraph.MasterException
-            self._check_world()
+            self.check_world()
             raise RunError('the ROS master stopped answering at sim time %.3f s (%s)'
                            % (self._fault_t(), e), self.world_log())
 
@@ -277,7 +272,7 @@ class Runner(Actions):
         """The topics this runner's actions publish on (Actions._publisher)."""
         return {topic for topic, _typ in self.pubs}
 
-    def _settle(self, quiet=0.02, longest=3.0):
+    def settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
         self.inbox.settle(quiet, longest)
@@ -295,7 +290,7 @@ class Runner(Actions):
         self.published = None
         missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG)
         if missing:
-            self._check_world()
+            self.check_world()
             raise RunError('slice handshake: %.0f s of wall time after the step to sim time '
                            '%.3f s, messages the world published have not arrived: %s' % (
                                HANDSHAKE_WATCHDOG, self.t, ', '.join(
@@ -331,7 +326,7 @@ class Runner(Actions):
             return 'receiving %s' % busy[0]
         return None
 
-    def _drain(self):
+    def drain(self):
         for t, _s, topic, msg in self.inbox.take():
             for e in self.by_topic.get(topic, ()):
                 e.feed(t, msg)
@@ -429,11 +424,11 @@ class Runner(Actions):
             self.world.proc = self.warm.launch
         # the apps' Python start-up overlaps the world's loading; start_apps waits for them
         self.apps.launch(self._own_pending)
-        self._init_ros()
+        self.init_ros()
         if self.attach:
             self._world_settings()
         self._services()
-        self.world.wait_phones(deadline, self._check_world)
+        self.world.wait_phones(deadline, self.check_world)
         self.world.find_watched()
 
     def _run_live(self):
@@ -449,7 +444,7 @@ class Runner(Actions):
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
         self.subscribe_all()
         self._sync()
-        self._drain()
+        self.drain()
         self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
         if self.on_start is not None:
             self.on_start()
@@ -476,7 +471,7 @@ class Runner(Actions):
 
     def _world_stopped(self, e):
         self.world.stopped()                 # roslaunch tears down after its node died
-        self._check_world()
+        self.check_world()
         raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
                        % (self.t, e), self.world_log())
 
@@ -487,7 +482,7 @@ class Runner(Actions):
         # outputs are timed to within a slice
         settle_every = self.sc.slice if self.sc.apps else SETTLE_EVERY
         while True:
-            self._check_world()
+            self.check_world()
             due = self.agenda.pop_due(self.t)
             while due is not None:
                 due[0](self.t)
@@ -508,11 +503,11 @@ class Runner(Actions):
                 if self._topics_stale():   # topics that appeared late (apps, spawned models)
                     self.subscribe_all()
                     self.topics_checked, self.topics_dirty = self.t, False
-            self._drain()
+            self.drain()
             self._check_conditions()
         # the last slice's messages (the handshake: exactly those the world handed over)
         self._sync()
-        self._drain()
+        self.drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:
             if e.topic not in self.intake.subs and e.verdict is None:

@@ -231,7 +231,7 @@ class WarmHost(object):
             pass
 
     def watched(self):
-        """{what: pid} of the master and the world node (Runner._check_world)."""
+        """{what: pid} of the master and the world node (Runner.check_world)."""
         return procs.master_and_world(self.core, self.launch)
 
     # -- the master and the world --------------------------------------------------------

@@ -124,3 +124,21 @@ def test_an_actions_publisher_is_woken_by_its_subscriber_connecting_not_by_polli
     th.join()
     assert c.wait(lambda: n[0], 0.0)                 # already connected: at once
     assert not _Connected().wait(lambda: 0, 0.05)    # nobody: gives up at the timeout
+
+
+def test_poll_looks_again_soon_then_less_often_and_gives_up_at_the_deadline(monkeypatch):
+    import time
+    sleeps = []
+    now = [100.0]
+    monkeypatch.setattr(time, 'sleep', lambda s: (sleeps.append(s), now.__setitem__(
+        0, now[0] + s)))
+    monkeypatch.setattr(time, 'monotonic', lambda: now[0])
+    looks = []
+    assert procs.poll(lambda: looks.append(1) or len(looks) >= 4, 200.0) is True
+    assert sleeps == [0.001, 0.002, 0.004]           # ready after 7 ms: seen at 7 ms
+    del sleeps[:]
+    assert procs.poll(lambda: False, now[0] + 0.1) is False
+    assert sleeps[:6] == [0.001, 0.002, 0.004, 0.008, 0.016, 0.02]   # at most every 20 ms
+    assert abs(sum(sleeps) - 0.1) < 1e-9             # and not past the deadline
+    del sleeps[:]
+    assert procs.poll(lambda: True, 0.0) is True and sleeps == []

@@ -14,6 +14,7 @@ into the Inbox (for the expectations) and the Recorder.
 import collections
 import time
 
+from .procs import poll
 from .recording import EVENTS_TOPIC, HEAVY_TYPES
 
 __all__ = ['Intake', 'stamp_of']
@@ -93,9 +94,7 @@ class Intake(object):
             self.classify(new, apps)
         if wait_connections and new:
             deadline = time.monotonic() + 10.0
-            while time.monotonic() < deadline and any(
-                    self.subs[t].get_num_connections() == 0 for t in new):
-                time.sleep(0.02)
+            poll(lambda: all(self.subs[t].get_num_connections() for t in new), deadline)
             self.wait_publisher_side(new, deadline)
             if self.debug:
                 self.say('subscribed %s; unconnected: %s' % (new, [
@@ -135,15 +134,18 @@ class Intake(object):
         except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
             return
         want = {t for t, ns in pubs if world in ns and t in topics}
-        while want and time.monotonic() < deadline:
+        if not want:
+            return
+        node = ServerProxy(node_uri)
+
+        def accepted():
             try:
-                _c, _m, info = ServerProxy(node_uri).getBusInfo(me)
-            except Exception:  # noqa: BLE001
-                return
+                _c, _m, info = node.getBusInfo(me)
+            except Exception:  # noqa: BLE001 - the world node is gone: nothing to wait for
+                return True
             have = {c[4] for c in info if len(c) > 4 and c[2] == 'o' and c[1] == me}
-            if not want - have:
-                return
-            time.sleep(0.02)
+            return not want - have
+        poll(accepted, deadline, first=0.002)
 
     def undelivered(self):
         """A subscribed topic of which rospy has deserialised more messages than reached the

@@ -15,6 +15,21 @@ __all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_
            'receivers_busy', 'tcp_queues', 'thread_states']
 
 
+def poll(cond, deadline, first=0.001, most=0.02):
+    """Wait until ``cond()`` is true or the monotonic ``deadline`` passes, looking again
+    after ``first`` s, then twice as long each time up to ``most`` s: what is ready in a
+    few ms (a local connection) is seen in a few ms, what takes long costs a look every
+    ``most`` s. For what only a look can tell (another node's state through its XML-RPC
+    API, a TCP connection of rospy's, which has no event). Returns the last cond()."""
+    wait = first
+    while True:
+        ok = cond()
+        if ok or time.monotonic() >= deadline:
+            return ok
+        time.sleep(min(wait, max(0.0, deadline - time.monotonic())))
+        wait = min(wait * 2, most)
+
+
 def ros_env(log_dir, port=None):
     """The environment of a run's processes: this one's, with the master on ``port`` of
     localhost (None: keep ROS_MASTER_URI, an attached run), ROS_HOSTNAME defaulting to

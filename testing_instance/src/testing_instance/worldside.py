@@ -24,7 +24,7 @@ import time
 from sim_world.netutil import wait_for_service
 
 from . import procs
-from .procs import Proc, free_port, tail
+from .procs import Proc, free_port, poll, tail
 from .results import RunError
 
 __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
@@ -80,14 +80,15 @@ class WorldSide(object):
             return
         if not self.attach:
             m = self.start_master(self._launch, deadline)
+
             # roslaunch sets the launch file's parameters before it starts rosout: once
             # rosout is there, the apps can start (and read them) while the world loads
-            while time.monotonic() < deadline and self.proc.alive():
+            def rosout():
                 try:
-                    m.lookupNode('/rosout')
-                    break
+                    return bool(m.lookupNode('/rosout'))
                 except Exception:  # noqa: BLE001 - not yet registered
-                    time.sleep(0.02)
+                    return not self.proc.alive()
+            poll(rosout, deadline, first=0.005)
 
     def _launch(self):
         path, args = self.launch_args()
@@ -102,7 +103,8 @@ class WorldSide(object):
     def wait_master(self, deadline):
         import rosgraph
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
-        while time.monotonic() < deadline:
+
+        def up():
             if self.proc is not None and not self.proc.alive():
                 raise RunError('the world exited while starting (code %s)'
                                % self.proc.p.returncode, self.log_tail())
@@ -110,9 +112,11 @@ class WorldSide(object):
                 # getSystemState: only a master answers it (getPid is any node's API, and a
                 # node of another job may hold this port for a moment)
                 m.getSystemState()
-                return
+                return True
             except Exception:  # noqa: BLE001 - not up yet
-                time.sleep(0.02)
+                return False
+        if poll(up, deadline, first=0.005):
+            return
         raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
                                                            self.sc.timeout), self.log_tail())
 
@@ -263,18 +267,17 @@ class WorldSide(object):
         return self._proxies[name]
 
     def wait_phones(self, deadline, check):
+        """Until the scenario's phone models are in the world (``check()`` raises when a
+        process is gone)."""
         for ph in self.sc.phones[:1] if not self.attach else self.sc.phones:
-            while True:
+            def there(ns=ph['ns']):
                 check()
                 try:
-                    if self.get_state(ph['ns'], '').success:
-                        break
+                    return self.get_state(ns, '').success
                 except Exception:  # noqa: BLE001 - service not yet there
-                    pass
-                if time.monotonic() > deadline:
-                    raise RunError('phone model %r did not appear' % ph['ns'],
-                                   self.log_tail())
-                time.sleep(0.05)
+                    return False
+            if not poll(there, deadline, first=0.005, most=0.05):
+                raise RunError('phone model %r did not appear' % ph['ns'], self.log_tail())
 
     def stopped(self):
         """After a failed step: give roslaunch the time to tear down after its node died."""

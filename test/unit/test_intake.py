@@ -162,3 +162,60 @@ def test_string_messages_are_recorded_whole(tmp_path):
     rec.close()
     with rosbag.Bag(str(tmp_path / 's.bag')) as b:
         assert [m.data for _tp, m, _t in b.read_messages()] == ['x' * 10000]
+
+
+def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(monkeypatch):
+    """One getSystemState per subscribe that found new topics: it tells the world's topics
+    from the others' (classify) and which the world must accept (wait_publisher_side)."""
+    import rosgraph
+    import xmlrpc.client
+    asked = collections.Counter()
+
+    class Master(object):
+        def __init__(self, *a, **k):
+            pass
+
+        def getSystemState(self):
+            asked['getSystemState'] += 1
+            return ([('/mobile_device/imu', ['/sim_world']),
+                     ('/app/out', ['/app']), ('/mixed', ['/sim_world', '/other'])], [], [])
+
+        def lookupNode(self, name):
+            asked['lookupNode'] += 1
+            return 'http://localhost:1/'
+
+    class Proxy(object):
+        def __init__(self, uri):
+            pass
+
+        def getBusInfo(self, me):
+            asked['getBusInfo'] += 1
+            return [1, '', [[1, me, 'o', 'TCPROS', '/mobile_device/imu', True],
+                            [2, me, 'o', 'TCPROS', '/mixed', True]]]
+
+    class Sub(object):
+        def __init__(self, topic, cls, cb, **kw):
+            self.topic = topic
+
+        def get_num_connections(self):
+            return 1
+
+    class Rospy(FakeRospy):
+        Subscriber = Sub
+    monkeypatch.setattr(rosgraph, 'Master', Master)
+    monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
+    it = Intake(Inbox(), Recorder())
+    it.world_node = '/sim_world'
+    it.start(Rospy())
+    it.topic_types = {'/mobile_device/imu': 'sensor_msgs/Imu', '/app/out': 'std_msgs/String',
+                      '/mixed': 'std_msgs/Float32'}
+    new = it.subscribe(['/mobile_device/imu', '/app/out', '/mixed', '/not/published'],
+                       apps=['/app'])
+    assert sorted(new) == ['/app/out', '/mixed', '/mobile_device/imu']
+    assert asked['getSystemState'] == 1, asked
+    assert asked['getBusInfo'] == 1                  # both world topics accepted at once
+    assert it.world_topics == {'/mobile_device/imu', '/mixed'}
+    assert it.uncounted == {'/mixed'}                # /other publishes it too
+    # nothing new: no master round trip at all
+    assert it.subscribe(['/mobile_device/imu', '/app/out']) == []
+    assert asked['getSystemState'] == 1

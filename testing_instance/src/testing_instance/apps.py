@@ -12,7 +12,7 @@ import sys
 import time
 
 from .appwatch import AppHung, AppWatch
-from .procs import Proc, tail
+from .procs import Proc, poll, tail
 from .results import RunError
 
 __all__ = ['Apps']
@@ -69,7 +69,8 @@ class Apps(object):
         names = list(self.procs)
         m = rosgraph.Master('/scenario_runner')
         deadline = time.monotonic() + min(self.sc.timeout, 60.0)
-        while names and time.monotonic() < deadline:
+
+        def registered():
             pubs, subs, _srv = m.getSystemState()
             nodes = {n for _t, ns in pubs + subs for n in ns}
             for n, p in list(names):
@@ -78,8 +79,8 @@ class Apps(object):
                                    tail(p.log_path))
                 if n in nodes:
                     names.remove((n, p))
-            if names:
-                time.sleep(0.02)
+            return not names
+        poll(registered, deadline, first=0.005)
         if names:
             raise RunError('app(s) %s did not register with the master within 60 s'
                            % ', '.join(n for n, _p in names),
@@ -122,6 +123,8 @@ class Apps(object):
             if not missing and topics == last_topics:
                 return
             last_topics = topics
+            # a fixed 20 ms, not procs.poll's backoff: "stopped changing" means unchanged
+            # over 20 ms of the app's set-up, not over the 1 ms of poll's first look
             time.sleep(0.02)
 
     def check(self, t, fault_t):

@@ -90,25 +90,37 @@ class Intake(object):
                 topic, cls, self.on_message, callback_args=topic, queue_size=1000,
                 buff_size=1 << 24 if typ in HEAVY_TYPES else 1 << 16, tcp_nodelay=True)
             new.append(topic)
-        if new:
-            self.classify(new, apps)
-        if wait_connections and new:
+        if not new:
+            return new
+        pubs = self._publishers()          # one master round trip serves both
+        self.classify(new, apps, pubs)
+        if wait_connections:
             deadline = time.monotonic() + 10.0
             poll(lambda: all(self.subs[t].get_num_connections() for t in new), deadline)
-            self.wait_publisher_side(new, deadline)
+            self.wait_publisher_side(new, deadline, pubs)
             if self.debug:
                 self.say('subscribed %s; unconnected: %s' % (new, [
                     t for t in new if self.subs[t].get_num_connections() == 0]))
         return new
 
-    def classify(self, topics, apps=()):
-        """Which new topics the world counts for the handshake, which come from publishers
-        that do not count (waited for with a quiet period). ``apps``: the apps' node names
-        (their outputs are waited for by evidence, appwatch)."""
+    @staticmethod
+    def _publishers():
+        """getSystemState's publishers ([topic, [node, ...]], ...), or None when the master
+        does not answer."""
         import rosgraph
         try:
-            pubs, _subs, _srv = rosgraph.Master('/scenario_runner').getSystemState()
-        except Exception:  # noqa: BLE001
+            return rosgraph.Master('/scenario_runner').getSystemState()[0]
+        except Exception:  # noqa: BLE001 - OSError, rosgraph.MasterException
+            return None
+
+    def classify(self, topics, apps=(), pubs=None):
+        """Which new topics the world counts for the handshake, which come from publishers
+        that do not count (waited for with a quiet period). ``apps``: the apps' node names
+        (their outputs are waited for by evidence, appwatch). ``pubs``: getSystemState's
+        publishers, asked for when not given."""
+        if pubs is None:
+            pubs = self._publishers()
+        if pubs is None:
             self.uncounted.update(topics)
             return
         by_topic = dict((t, set(ns)) for t, ns in pubs)
@@ -119,22 +131,26 @@ class Intake(object):
             if nodes - {self.world_node} - set(apps) or self.world_node is None:
                 self.uncounted.add(t)
 
-    def wait_publisher_side(self, topics, deadline):
+    def wait_publisher_side(self, topics, deadline, pubs=None):
         """Wait until the world's publishers count this node as a subscriber: a sensor
         publishes only while subscribed, so a connection still being accepted on the world's
-        side would cost the first message in one run and not in another."""
+        side would cost the first message in one run and not in another. ``pubs``:
+        getSystemState's publishers, asked for when not given."""
         import rosgraph
         from xmlrpc.client import ServerProxy
         master = rosgraph.Master('/scenario_runner')
         me = self.rospy.get_name()
         world = self.world_name()
-        try:
-            pubs, _subs, _srv = master.getSystemState()
-            node_uri = master.lookupNode(world)
-        except Exception:  # noqa: BLE001 - no world node (replay, other launch files)
+        if pubs is None:
+            pubs = self._publishers()
+        if pubs is None:
             return
         want = {t for t, ns in pubs if world in ns and t in topics}
         if not want:
+            return     # none is the world's (or no world node: a replay, other launch files)
+        try:
+            node_uri = master.lookupNode(world)
+        except Exception:  # noqa: BLE001 - the world node is gone
             return
         node = ServerProxy(node_uri)
 

@@ -133,3 +133,22 @@ def test_the_world_side_of_the_subscriptions_is_awaited_in_a_namespace(monkeypat
     r.wait_publisher_side(['/mobile_device/camera_info', '/lab/imu'], time.monotonic() + 5)
     assert asked == ['/lab/sim_world']
     assert len(calls) == 3                  # waited until both were accepted
+
+
+def test_the_start_up_is_told_by_its_phases_which_add_up_to_the_figure():
+    """The start-up line's breakdown: what came before the run (the command's Python start),
+    then each phase's own seconds; phases under 5 ms left out; nothing in a replay."""
+    from types import SimpleNamespace
+    from testing_instance.runner import Runner
+    r = SimpleNamespace(wall0=100.0, startup=1.5,
+                        phases=[('master', 100.6), ('node and world', 101.0),
+                                ('phones', 101.002), ('first step', 101.3)])
+    got = Runner.startup_phases(r)
+    assert [n for n, _s in got] == ['Python and imports', 'master', 'node and world',
+                                    'first step']
+    assert [round(s, 3) for _n, s in got] == [0.2, 0.6, 0.4, 0.298]
+    assert abs(sum(s for _n, s in got) + 0.002 - r.startup) < 1e-9
+    # a farm's later run: its start-up is from its own start, nothing before it
+    r.startup = 1.3
+    assert Runner.startup_phases(r)[0][0] == 'master'
+    assert Runner.startup_phases(SimpleNamespace(wall0=0.0, startup=None, phases=[])) == []

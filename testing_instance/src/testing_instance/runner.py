@@ -374,6 +374,7 @@ class Runner(Actions):
     # -- the run ---------------------------------------------------------------------------
     def run(self):
         wall0 = self.wall0 = time.monotonic()
+        self.phases = []                 # (phase of the start-up, monotonic time it ended)
         self.expectations = [Expectation(e, self.sc.duration) for e in self.sc.expect]
         self.by_topic = {}
         for e in self.expectations:
@@ -415,21 +416,30 @@ class Runner(Actions):
         self.timed_out = True
         self.world.interrupt('scenario timeout')
 
+    def _phase(self, name):
+        """Mark the end of a phase of the start-up (printed with its figure)."""
+        self.phases.append((name, time.monotonic()))
+
     def _start_world(self):
         deadline = time.monotonic() + min(self.sc.timeout, 120.0)
         self.world.start(deadline)
+        self._phase('master')
         if self.warm is not None:
             # a farm's warm world: started over (or launched, for a new world) at sim time 0
             self.warm.prepare(self, deadline)
             self.world.proc = self.warm.launch
+            self._phase('warm world')
         # the apps' Python start-up overlaps the world's loading; start_apps waits for them
         self.apps.launch(self._own_pending)
         self.init_ros()
+        self._phase('node' if not self.world.embedded else 'node and world')
         if self.attach:
             self._world_settings()
         self._services()
+        self._phase('world services')
         self.world.wait_phones(deadline, self.check_world)
         self.world.find_watched()
+        self._phase('phones')
 
     def _run_live(self):
         self._start_world()
@@ -437,14 +447,17 @@ class Runner(Actions):
         if self.record_path:
             self.open_recording()
         self.start_apps()
+        self._phase('apps')
         if self.warm is not None:
             self.warm.settle()                   # the last scenario's apps are gone
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
+        self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
         self.subscribe_all()
         self._sync()
         self.drain()
+        self._phase('subscribing')
         self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
         if self.on_start is not None:
             self.on_start()
@@ -455,6 +468,22 @@ class Runner(Actions):
         w0, s0 = time.monotonic(), self.t
         self._loop(self._step_to)
         self.loop_wall = (time.monotonic() - w0, self.t - s0)
+
+    def startup_phases(self):
+        """The start-up's phases and their seconds, in order: what came before this run
+        (the command's Python start and imports; in a farm's later runs nothing), then each
+        marked phase; phases under 5 ms are left out."""
+        if getattr(self, 'startup', None) is None or not self.phases:
+            return []
+        end = self.phases[-1][1]
+        before = self.startup - (end - self.wall0)
+        out = [('Python and imports', before)] if before >= 0.005 else []
+        prev = self.wall0
+        for name, t in self.phases:
+            if t - prev >= 0.005:
+                out.append((name, t - prev))
+            prev = t
+        return out
 
     def _step_to(self, t_next):
         return WorldClock(self._step, self._world_stopped).step_to(t_next)
@@ -562,7 +591,9 @@ class Runner(Actions):
             self.say('timeline: %.3f s of sim time in %.2f s of wall time (real-time factor '
                      '%.2f)' % (lw[1], lw[0], lw[1] / lw[0]))
         if getattr(self, 'startup', None) is not None:
-            self.say('start-up: %.2f s from the command to sim time 0' % self.startup)
+            parts = ', '.join('%s %.2f' % p for p in self.startup_phases())
+            self.say('start-up: %.2f s from the command to sim time 0%s'
+                     % (self.startup, ' (%s)' % parts if parts else ''))
         if self.world_node is not None and not self.replay:
             got = sum(self.inbox.from_world.values())
             self.dropped = {t: d for t, d in getattr(self, 'dropped', {}).items()

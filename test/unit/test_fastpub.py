@@ -315,7 +315,11 @@ def test_a_message_begun_directly_is_finished_by_the_writer_and_never_dropped():
         assert c.sent == 0 and c.unsent() == 1
         for i in range(5):                       # a queue of 2 behind the rest of ``big``
             c.write_data(b'small%d' % i)
-        assert c.handed == 6 and c.dropped >= 2
+        # how many are dropped depends on when the writer thread took the queue (it can
+        # take it once: then it waits at the gate with the rest of ``big``): 3 if before
+        # small0 or after small4, 2 after small0 or small3, 1 after small1 or small2
+        # (under load; once seen with two CPU hogs). Never none: five behind a queue of 2.
+        assert c.handed == 6 and 1 <= c.dropped <= 3
         t.gate.set()
         kept = 5 - c.dropped
         got = _read(b, len(big) + 6 * kept)

@@ -142,3 +142,80 @@ def test_poll_looks_again_soon_then_less_often_and_gives_up_at_the_deadline(monk
     assert abs(sum(sleeps) - 0.1) < 1e-9             # and not past the deadline
     del sleeps[:]
     assert procs.poll(lambda: True, 0.0) is True and sleeps == []
+
+
+RESPAWNER = r'''
+import os, subprocess, sys, time
+# as roscore does with rosout (respawn="true"): a child started again as soon as it dies
+kid = subprocess.Popen(['sleep', sys.argv[1]], start_new_session=True)
+print(kid.pid, flush=True)
+while True:
+    if kid.poll() is not None:
+        kid = subprocess.Popen(['sleep', '60'], start_new_session=True)
+        print(kid.pid, flush=True)
+    time.sleep(0.001)
+'''
+
+
+def _kill_slowly_then_check_nothing_is_left(tmp_path, monkeypatch, kill, first='60'):
+    import signal
+    import sys
+    import time
+    marker = 'RESPAWN_TEST_%d_%s' % (os.getpid(), kill)
+    env = dict(os.environ, **{marker: '1'})
+    script = tmp_path / 'respawner.py'
+    script.write_text(RESPAWNER)
+    p = procs.Proc([sys.executable, str(script), first], env, str(tmp_path / 'r.log'))
+    try:
+        deadline = time.monotonic() + 10
+        while not open(str(tmp_path / 'r.log')).read().strip() and \
+                time.monotonic() < deadline:
+            time.sleep(0.01)
+        if first == '60':
+            assert len(procs.descendants(p.p.pid)) == 2
+        real_kill = os.kill
+
+        def slow_kill(pid, sig):
+            # a runner thread descheduled between two kills (the GIL, a busy machine)
+            real_kill(pid, sig)
+            if sig == signal.SIGKILL:
+                time.sleep(0.05)
+        monkeypatch.setattr(os, 'kill', slow_kill)
+        kill(p)
+        monkeypatch.setattr(os, 'kill', real_kill)
+        time.sleep(0.1)
+        left = procs.carrying(marker)
+        assert left == [], 'left behind: %s (started: %s)' % (
+            left, open(str(tmp_path / 'r.log')).read().split())
+    finally:
+        for pid, _c in procs.carrying(marker):
+            os.kill(pid, 9)
+
+
+def test_killing_a_tree_leaves_no_respawned_child_behind(tmp_path, monkeypatch):
+    """kill_tree stops the root first: a parent that restarts its dead child (roscore's
+    rosout) gets no chance to, even when the killer is slow between two kills."""
+    _kill_slowly_then_check_nothing_is_left(tmp_path, monkeypatch, procs.kill_tree)
+
+
+def test_stopping_a_run_leaves_no_respawned_child_of_the_launch_behind(tmp_path,
+                                                                      monkeypatch):
+    """stop_run's end of a launch (once its world node is gone): the same for roslaunch,
+    whose tree is listed again at the end: here its first child ends by itself while the
+    node shuts down (0.3 s), and the one started instead is not in the first list."""
+    import subprocess
+    nodes = []
+
+    def stop(p):
+        # a world node that takes 0.3 s to shut down after its SIGINT
+        nodes.append(subprocess.Popen(['bash', '-c', 'trap "" INT; echo up; sleep 0.3'],
+                                      stdout=subprocess.PIPE))
+        assert nodes[0].stdout.readline() == b'up\n'        # SIGINT is ignored now
+        procs.stop_run([], launch=p, node=nodes[0].pid, grace=5.0)
+    try:
+        _kill_slowly_then_check_nothing_is_left(tmp_path, monkeypatch, stop, first='0.1')
+    finally:
+        for n in nodes:
+            n.kill()
+            n.wait()
+            n.stdout.close()

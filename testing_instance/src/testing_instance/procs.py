@@ -11,8 +11,8 @@ import time
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
 __all__ = ['Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
-           'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
-           'receivers_busy', 'tcp_queues', 'thread_states']
+           'frozen_tree', 'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes',
+           'state', 'tail', 'receivers_busy', 'tcp_queues', 'thread_states']
 
 
 def poll(cond, deadline, first=0.001, most=0.02):
@@ -134,23 +134,44 @@ def stop_run(apps, launch=None, node=None, grace=10.0):
     if tree:
         while alive(node) and time.monotonic() < deadline:
             time.sleep(0.01)
-        for pid in [node] + [q for q in tree if q != node]:
-            if alive(pid):
-                try:
-                    os.kill(pid, signal.SIGKILL)
-                except OSError:
-                    pass
+        # roslaunch first (stopped, then killed): it would restart a respawn="true" node
+        # killed before it; the tree is listed again (what it started meanwhile)
+        _kill_all([node] + [q for q in frozen_tree(launch.p.pid, tree) if q != node
+                            and alive(q)])
     launch.finish(deadline if not tree else time.monotonic() + 5.0)
 
 
-def kill_tree(proc):
-    """SIGKILL ``proc`` and every process below it; wait for it."""
-    tree = descendants(proc.p.pid)
-    for pid in reversed(tree):
+def frozen_tree(pid, also=()):
+    """Stop ``pid`` (SIGSTOP) and wait, up to 1 s, until it is stopped: then it cannot
+    start anything new (roscore and roslaunch respawn a respawn="true" node, such as
+    roscore's rosout, as soon as it dies). Returns pid, then every process below it, then
+    those of ``also`` not among them (listed earlier: they may have been reparented)."""
+    try:
+        os.kill(pid, signal.SIGSTOP)
+    except OSError:
+        pass
+    deadline = time.monotonic() + 1.0
+    while state(pid) not in (None, 'T', 't', 'Z', 'X') and time.monotonic() < deadline:
+        time.sleep(0.001)
+    tree = descendants(pid)
+    return tree + [p for p in also if p not in tree]
+
+
+def _kill_all(pids):
+    """SIGKILL each pid in order (the root first: it cannot restart the others)."""
+    for pid in pids:
         try:
             os.kill(pid, signal.SIGKILL)
         except OSError:
             pass
+
+
+def kill_tree(proc):
+    """SIGKILL ``proc`` and every process below it; wait for it. ``proc`` is stopped and
+    killed first: killing roscore's rosout before roscore let roscore start a new one,
+    left behind once roscore was killed (seen once, an orphaned rosout)."""
+    tree = frozen_tree(proc.p.pid)
+    _kill_all(tree)
     proc.finish(time.monotonic() + 5.0)
     deadline = time.monotonic() + 5.0     # its sockets are closed once each one is gone
     while any(alive(pid) for pid in tree) and time.monotonic() < deadline:

@@ -27,11 +27,13 @@ rospy.init_node('graph_app')
 pub = rospy.Publisher('~graph', String, queue_size=1, latch=True)
 imu = []
 while not imu and not rospy.is_shutdown():     # the phone is spawned after the apps start
-    pubs, _subs, srvs = rosgraph.Master('/graph_app').getSystemState()
+    pubs, subs, srvs = rosgraph.Master('/graph_app').getSystemState()
     imu = sorted(n for t, ns in pubs if t == '/mobile_device/imu_sensor_data' for n in ns)
     time.sleep(0.01)
 step = sorted(n for s, ns in srvs if s == '/gazebo/step_world' for n in ns)
-pub.publish(String(' '.join(imu) + ' | ' + ' '.join(step)))
+clock = [n for t, ns in subs if t == '/clock' for n in ns]
+pub.publish(String(' '.join(imu) + ' | ' + ' '.join(step) + ' | rosout on /clock: %s'
+                   % ('yes' if '/rosout' in clock else 'no')))
 rospy.spin()
 """
 
@@ -54,12 +56,14 @@ def test_embedded_world_records_what_the_world_node_records(tmp_path):
 
 
 def test_apps_see_the_world_node_of_the_launch_file(tmp_path):
+    """The world's topics and services are served by /sim_world; roscore's rosout, started
+    before the run set /use_sim_time, takes no /clock (WorldSide.rosout_started)."""
     (tmp_path / 'graph_app.py').write_text(GRAPH_APP)
     (tmp_path / 'graph.yaml').write_text(
         'name: graph\nduration: 0.3\nworld: {args: {camera_rate: 1}}\n'
         'apps: [{name: graph_app, script: graph_app.py}]\n'
         'expect:\n  - {name: served_by_sim_world, topic: /graph_app/graph, field: data,\n'
-        '     eventually: {equals: "/sim_world | /sim_world"}}\n')
+        '     eventually: {equals: "/sim_world | /sim_world | rosout on /clock: no"}}\n')
     rc, out = run_scenario(tmp_path / 'graph.yaml', '--embedded')
     assert rc == 0, out
     assert verdicts(out) == {'served_by_sim_world': 'PASS'}, out

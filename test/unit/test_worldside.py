@@ -155,3 +155,30 @@ def test_the_master_and_the_world_node_are_found_below_roslaunch(tmp_path):
             ws.check(lambda: 0.5)
     finally:
         procs.kill_tree(ws.proc)
+
+
+def test_the_sim_time_waits_for_rosout_to_start_which_then_needs_no_clock(monkeypatch):
+    """An embedded run's roscore starts rosout; /use_sim_time is set once rosout publishes
+    /rosout_agg (a roscpp node reads it once, at its start, and only with it subscribes to
+    /clock). A master that answers nothing yet, then rosout's other topics only, is asked
+    again; a rosout that never comes costs at most the deadline."""
+    import time
+    answers = [OSError('connection refused'),
+               ([['/rosout', ['/app']]], [], []),
+               ([['/rosout', ['/app']], ['/rosout_agg', ['/rosout']]], [], [])]
+    asked = []
+
+    class Master(object):
+        def getSystemState(self):
+            asked.append(time.monotonic())
+            a = answers[min(len(asked), len(answers)) - 1]
+            if isinstance(a, Exception):
+                raise a
+            return a
+    WorldSide.rosout_started(Master(), time.monotonic() + 5.0)
+    assert len(asked) == 3
+    answers[:] = [([['/rosout', ['/app']]], [], [])]          # never
+    del asked[:]
+    t0 = time.monotonic()
+    WorldSide.rosout_started(Master(), t0 + 0.2)
+    assert 0.19 <= time.monotonic() - t0 < 1.0 and len(asked) > 3

@@ -120,11 +120,12 @@ class WorldSide(object):
         raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
                                                            self.sc.timeout), self.log_tail())
 
-    def start_master(self, start, deadline, meanwhile=None):
+    def start_master(self, start, deadline, meanwhile=None, before_sim_time=None):
         """``start()`` (roslaunch or roscore: self.proc) on a free port until its master
         answers; ``meanwhile()`` runs once while the first one starts. The master, with
         /use_sim_time set: rospy reads it at init_node (the launch file sets it too, maybe
-        later), else this node would time messages by the wall clock."""
+        later), else this node would time messages by the wall clock.
+        ``before_sim_time(master)`` runs before /use_sim_time is set."""
         import rosgraph
         for attempt in (1, 2):
             if self.port is None or attempt == 2:
@@ -142,8 +143,26 @@ class WorldSide(object):
                     raise
                 self.proc.stop(grace=2.0)
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
+        if before_sim_time is not None:
+            before_sim_time(m)
         m.setParam('/use_sim_time', True)
         return m
+
+    @staticmethod
+    def rosout_started(master, deadline):
+        """Wait (at most until ``deadline``, or 5 s) until roscore's rosout has started:
+        it publishes /rosout_agg. A roscpp node reads /use_sim_time once, as it starts, and
+        only then subscribes to /clock; rosout needs no sim time (it passes the log lines'
+        own stamps on). Had it started after the run set /use_sim_time, every /clock tick
+        went to it over TCP (about 80 us of the world's thread each: a twentieth of a
+        recorded sensors scenario's timeline), and whether it did was a race."""
+        def started():
+            try:
+                pubs = master.getSystemState()[0]
+            except Exception:  # noqa: BLE001 - the master is being asked too early
+                return False
+            return any(t == '/rosout_agg' and '/rosout' in ns for t, ns in pubs)
+        poll(started, min(deadline, time.monotonic() + 5.0), first=0.005)
 
     def _start_embedded(self, deadline):
         """A master of its own, the launch file's parameters and other nodes; the world
@@ -158,7 +177,8 @@ class WorldSide(object):
                 # and the renderer's imports (OpenCV: 0.2 s), which the world's first
                 # step_world needs when a camera has a subscriber (World.prepare_renderer)
                 import sim_world.render  # noqa: F401
-        m = self.start_master(self.start_roscore, deadline, meanwhile=plan)
+        m = self.start_master(self.start_roscore, deadline, meanwhile=plan,
+                              before_sim_time=lambda m: self.rosout_started(m, deadline))
         if self.launch_plan.world is None:
             if self.embed_required:
                 raise RunError('--embedded: %s' % self.launch_plan.why)

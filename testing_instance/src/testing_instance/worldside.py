@@ -154,8 +154,9 @@ class WorldSide(object):
         it publishes /rosout_agg. A roscpp node reads /use_sim_time once, as it starts, and
         only then subscribes to /clock; rosout needs no sim time (it passes the log lines'
         own stamps on). Had it started after the run set /use_sim_time, every /clock tick
-        went to it over TCP (about 80 us of the world's thread each: a twentieth of a
-        recorded sensors scenario's timeline), and whether it did was a race."""
+        went to it over TCP (about 80 us of the world's thread each; a recorded 20 s sensors
+        scenario's timeline took 1.72-1.82 s with it, 1.50-1.54 s without), and whether it
+        did was a race."""
         def started():
             try:
                 pubs = master.getSystemState()[0]

@@ -55,16 +55,18 @@ def test_embedded_world_records_what_the_world_node_records(tmp_path):
             assert x == y, '%s message %d (time, bytes) differs embedded and not' % (topic, i)
 
 
-def test_apps_see_the_world_node_of_the_launch_file(tmp_path):
-    """The world's topics and services are served by /sim_world; roscore's rosout, started
-    before the run set /use_sim_time, takes no /clock (WorldSide.rosout_started)."""
+@pytest.mark.parametrize('mode', ['--embedded', '--world-node'])
+def test_apps_see_the_world_node_of_the_launch_file(tmp_path, mode):
+    """The world's topics and services are served by /sim_world, embedded or launched;
+    the run's rosout takes no /clock (procs.Core starts it with /use_sim_time remapped
+    away: with roscore, and with roslaunch's own master, it took every tick)."""
     (tmp_path / 'graph_app.py').write_text(GRAPH_APP)
     (tmp_path / 'graph.yaml').write_text(
         'name: graph\nduration: 0.3\nworld: {args: {camera_rate: 1}}\n'
         'apps: [{name: graph_app, script: graph_app.py}]\n'
         'expect:\n  - {name: served_by_sim_world, topic: /graph_app/graph, field: data,\n'
         '     eventually: {equals: "/sim_world | /sim_world | rosout on /clock: no"}}\n')
-    rc, out = run_scenario(tmp_path / 'graph.yaml', '--embedded')
+    rc, out = run_scenario(tmp_path / 'graph.yaml', mode)
     assert rc == 0, out
     assert verdicts(out) == {'served_by_sim_world': 'PASS'}, out
     assert 'spawned model' not in out          # the world's log lines go to its log file

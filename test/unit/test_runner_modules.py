@@ -90,7 +90,7 @@ def test_replay_uses_only_the_runners_public_api():
                       and isinstance(n.value, ast.Name) and n.value.id == 'r'
                       and n.attr.startswith('_')})
     assert private == []
-    for name in ('start_roscore', 'wait_master', 'init_ros', 'open_recording', 'start_apps',
+    for name in ('start_master', 'init_ros', 'open_recording', 'start_apps',
                  'subscribe_all', 'write_meta', 'check_world', 'settle', 'drain',
                  'start_after', 'master_uri', 'missing_topics_are_errors'):
         assert hasattr(runner.Runner, name), name

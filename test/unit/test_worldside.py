@@ -17,15 +17,22 @@ def _sc(**kw):
     return types.SimpleNamespace(timeout=30.0, phones=[{'ns': 'mobile_device'}], **kw)
 
 
+def _core(master):
+    """A procs.Core around ``master`` (a Proc), without starting anything."""
+    core = procs.Core.__new__(procs.Core)
+    core.master, core.rosout = master, None
+    return core
+
+
 def _dead_pid():
     p = subprocess.Popen([sys.executable, '-c', 'pass'])
     p.wait()
     return p.pid
 
 
-def _exited_proc(tmp_path, code, text='world: could not load office.world'):
+def _exited_proc(tmp_path, code, text='world: could not load office.world', log='world.log'):
     p = Proc([sys.executable, '-c', 'print(%r); raise SystemExit(%d)' % (text, code)],
-             dict(os.environ), str(tmp_path / 'world.log'))
+             dict(os.environ), str(tmp_path / log))
     p.p.wait()
     return p
 
@@ -71,9 +78,11 @@ def test_a_dead_master_is_the_master_and_a_dead_launch_the_world(tmp_path):
     assert str(e.value) == 'the world died at sim time 0.250 s (exit code 3)'
     assert e.value.log_lines == ['world: could not load office.world']
     emb = WorldSide(_sc(), str(tmp_path), port=1, embedded=True)
-    emb.proc = ws.proc
-    with pytest.raises(RunError, match=r'^the ROS master \(roscore\) died'):
+    emb.core = _core(_exited_proc(tmp_path, 1, 'Address already in use', log='rosmaster.log'))
+    with pytest.raises(RunError) as e:
         emb.check(lambda: 0.0)
+    assert str(e.value) == 'the ROS master died at sim time 0.000 s (exit code 1)'
+    assert e.value.log_lines[0] == 'Address already in use'
 
 
 def test_an_embedded_world_that_failed_or_was_shut_down_says_so(tmp_path):
@@ -123,26 +132,31 @@ def test_stop_ends_a_launched_worlds_apps_and_launch(tmp_path):
     assert not procs.alive(app.p.pid)
 
 
-def test_the_master_and_the_world_node_are_found_below_roslaunch(tmp_path):
-    """find_watched: the rosmaster and the sim_world node below the world's process, by
-    their command lines (roslaunch keeps running when either dies: they are watched)."""
-    (tmp_path / 'rosmaster').write_text('import time\ntime.sleep(60)\n')
+def test_the_master_and_the_world_node_below_roslaunch_are_watched(tmp_path):
+    """find_watched: the run's own master (procs.Core), and the sim_world node below the
+    world's roslaunch, found by its command line among roslaunch's other children
+    (roslaunch keeps running when either dies: they are watched)."""
     launcher = tmp_path / 'launch.py'
     launcher.write_text(
         'import subprocess, sys, time\n'
-        'a = subprocess.Popen([sys.executable, %r, "--core"])\n'
+        'a = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", '
+        '"__name:=spawner"])\n'
         'b = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", '
         '"__name:=sim_world"])\n'
         'print(a.pid, b.pid, flush=True)\n'
-        'time.sleep(60)\n' % str(tmp_path / 'rosmaster'))
+        'time.sleep(60)\n')
     ws = WorldSide(_sc(), str(tmp_path), port=1)
+    ws.core = _core(Proc([sys.executable, '-c', 'import time; time.sleep(60)'],
+                         dict(os.environ), str(tmp_path / 'm.log')))
+    master = ws.core.master.p.pid
     ws.proc = Proc([sys.executable, str(launcher)], dict(os.environ), str(tmp_path / 'l.log'))
     try:
         import time
         deadline = time.monotonic() + 20
         while time.monotonic() < deadline and not open(str(tmp_path / 'l.log')).read():
             time.sleep(0.02)
-        master, node = (int(x) for x in open(str(tmp_path / 'l.log')).read().split())
+        _spawner, node = (int(x) for x in open(str(tmp_path / 'l.log')).read().split())
+        ws.watch.update(ws.core.pids())          # start_master's
         ws.find_watched()
         assert ws.watch == {procs.MASTER: master, procs.WORLD_NODE: node}
         ws.check(lambda: 0.0)                     # all alive
@@ -155,30 +169,68 @@ def test_the_master_and_the_world_node_are_found_below_roslaunch(tmp_path):
             ws.check(lambda: 0.5)
     finally:
         procs.kill_tree(ws.proc)
+        ws.core.kill()
 
 
-def test_the_sim_time_waits_for_rosout_to_start_which_then_needs_no_clock(monkeypatch):
-    """An embedded run's roscore starts rosout; /use_sim_time is set once rosout publishes
-    /rosout_agg (a roscpp node reads it once, at its start, and only with it subscribes to
-    /clock). A master that answers nothing yet, then rosout's other topics only, is asked
-    again; a rosout that never comes costs at most the deadline."""
-    import time
-    answers = [OSError('connection refused'),
-               ([['/rosout', ['/app']]], [], []),
-               ([['/rosout', ['/app']], ['/rosout_agg', ['/rosout']]], [], [])]
-    asked = []
+class _Master(object):
+    """rosgraph.Master's calls a run makes while its master starts, recorded."""
+    def __init__(self, pids=()):
+        self.pids = list(pids)
+        self.calls = []
 
-    class Master(object):
-        def getSystemState(self):
-            asked.append(time.monotonic())
-            a = answers[min(len(asked), len(answers)) - 1]
-            if isinstance(a, Exception):
-                raise a
-            return a
-    WorldSide.rosout_started(Master(), time.monotonic() + 5.0)
-    assert len(asked) == 3
-    answers[:] = [([['/rosout', ['/app']]], [], [])]          # never
-    del asked[:]
-    t0 = time.monotonic()
-    WorldSide.rosout_started(Master(), t0 + 0.2)
-    assert 0.19 <= time.monotonic() - t0 < 1.0 and len(asked) > 3
+    def getPid(self):
+        self.calls.append(('getPid',))
+        p = self.pids.pop(0) if len(self.pids) > 1 else self.pids[0]
+        if isinstance(p, Exception):
+            raise p
+        return p
+
+    def setParam(self, name, value):
+        self.calls.append(('setParam', name, value))
+
+
+def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path, monkeypatch):
+    """wait_master asks the master for its pid: on a port just taken by another job's
+    master, that one answers first; the run waits for its own (or for its exit, an error
+    naming it, with its output)."""
+    import rosgraph
+    ws = WorldSide(_sc(), str(tmp_path), port=1)
+    ws.core = _core(Proc([sys.executable, '-c', 'import time; time.sleep(60)'],
+                         dict(os.environ), str(tmp_path / 'm.log')))
+    own = ws.core.master.p.pid
+    fake = _Master([OSError('connection refused'), own + 1, own + 1, own])
+    monkeypatch.setattr(rosgraph, 'Master', lambda *a, **kw: fake)
+    try:
+        import time
+        assert ws.wait_master(time.monotonic() + 10.0) is fake
+        assert len(fake.calls) == 4
+    finally:
+        ws.core.kill()
+    ws.core = _core(_exited_proc(tmp_path, 1, 'port in use', log='rosmaster.log'))
+    fake.pids = [own + 1]
+    with pytest.raises(RunError) as e:
+        ws.wait_master(time.monotonic() + 10.0)
+    assert str(e.value) == 'the ROS master exited while starting (code 1)'
+    assert e.value.log_lines == ['port in use']
+
+
+def test_the_core_sets_sim_time_and_starts_rosout_without_it(tmp_path, monkeypatch):
+    """Core.up: /use_sim_time and roscore's own parameters are set, then rosout starts
+    with /use_sim_time remapped away (a roscpp node that reads it true subscribes to
+    /clock, which the world would then send it every tick)."""
+    started = []
+
+    class FakeProc(object):
+        def __init__(self, cmd, env, log_path):
+            started.append((cmd, list(fake.calls)))
+    monkeypatch.setattr(procs, 'Proc', FakeProc)
+    fake = _Master()
+    core = procs.Core(11999, {}, str(tmp_path))
+    assert started[0][0] == ['rosmaster', '--core', '-p', '11999', '-w', '3']
+    core.up(fake)
+    cmd, params_then = started[1]
+    assert os.path.basename(cmd[0]) == 'rosout'
+    assert cmd[1:] == ['__name:=rosout', '/use_sim_time:=/rosout/no_sim_time']
+    names = [c[1] for c in params_then]
+    assert names[0] == '/use_sim_time' and params_then[0][2] is True
+    assert set(names) == {'/use_sim_time', '/run_id', '/rosdistro', '/rosversion'}

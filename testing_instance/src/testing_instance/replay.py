@@ -16,7 +16,6 @@ import re
 import time
 
 from .clock import ReplayClock
-from .procs import free_port
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
 from .results import RunError
 
@@ -142,14 +141,7 @@ def replay_run(r):
         r.say('WARNING ' + rec.warning)
     meta = rec.meta
     inputs = set(meta['inputs'])
-    if r.port is None:
-        r.port = free_port()
-    r.start_roscore()
-    r.wait_master(time.monotonic() + 60.0)
-    import rosgraph
-    import rosparam  # noqa: F401 - ensures the param API is importable
-    rosgraph.Master('/scenario_runner', master_uri=r.master_uri()).setParam(
-        '/use_sim_time', True)
+    r.start_master(time.monotonic() + 60.0)    # its own master and rosout, sim time set
     r.init_ros()
     clock = rospy.Publisher('/clock', Clock, queue_size=100)
     pubs = {topic: rospy.Publisher(topic, cls, queue_size=10000,

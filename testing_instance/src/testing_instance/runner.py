@@ -118,8 +118,7 @@ class Runner(Actions):
     get_state = property(lambda self: self.world.get_state)
     proxy = property(lambda self: self.world.proxy)
     world_log = property(lambda self: self.world.log_tail)
-    start_roscore = property(lambda self: self.world.start_roscore)   # a replay's master
-    wait_master = property(lambda self: self.world.wait_master)
+    start_master = property(lambda self: self.world.start_master)     # a replay's master
 
     def missing_topics_are_errors(self, why):
         for e in self.expectations:

@@ -64,7 +64,7 @@ class WarmHost(object):
     def __init__(self, run_dir=None):
         self.dir = run_dir or tempfile.mkdtemp(prefix='warm_world_')
         self.port = None
-        self.core = None          # Proc: roscore (master + rosout), for the worker's life
+        self.core = None          # procs.Core: master and rosout, for the worker's life
         self.launch = None        # Proc: roslaunch of the world
         self.key = None
         self.node_pid = None      # the world node below the launch
@@ -91,15 +91,21 @@ class WarmHost(object):
                 # this process's node belongs to the master that died: a new worker takes
                 # the next scenario (rospy cannot start over in a process)
                 self.broken = True
-                raise RunError('the warm worker\'s ROS master died', procs.tail(
-                    self.core.log_path))
-            if fresh:                    # roscore starts while the world's roslaunch does
+                raise RunError('the warm worker\'s ROS master died', self.core.log_tail())
+            if fresh:
                 self._stop_world()
                 self.port = free_port()
                 os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
                 os.environ.setdefault('ROS_HOSTNAME', 'localhost')
-                self.core = Proc(['roscore', '-p', str(self.port)], self.env(),
-                                 os.path.join(self.dir, 'roscore.log'))
+                self.core = procs.Core(self.port, self.env(), self.dir)
+                if not self._await_core(deadline):
+                    # the free port was taken between the look and the master's bind
+                    # (another worker): once more on a new port
+                    self.core.stop(grace=2.0)
+                    if attempt == 2:
+                        raise RunError('no ROS master on port %d for the warm world'
+                                       % self.port, self.core.log_tail())
+                    continue
             runner.port = self.port
             if fresh or key != self.key or self.launch is None or \
                     not self.launch.alive() or not procs.alive(self.node_pid or -1) or \
@@ -107,15 +113,7 @@ class WarmHost(object):
                 self._stop_world()
                 if not fresh:            # the killed world's registrations go too
                     self._clear(None, {'/rosout', '/scenario_runner'})
-                self._start_world(runner, key, deadline, wait=fresh)
-                if fresh and not self._await_core(deadline):
-                    # the free port was taken between the look and roscore's bind (another
-                    # worker): once more on a new port
-                    self.core.stop(grace=2.0)
-                    if attempt == 2:
-                        raise RunError('no ROS master on port %d for the warm world'
-                                       % self.port, procs.tail(self.core.log_path))
-                    continue
+                self._start_world(runner, key, deadline)
                 self._await_world(deadline)
             else:
                 self._clear(self.base_params, self.base_nodes | set(CORE_NODES))
@@ -232,7 +230,9 @@ class WarmHost(object):
 
     def watched(self):
         """{what: pid} of the master and the world node (Runner.check_world)."""
-        return procs.master_and_world(self.core, self.launch)
+        watched = self.core.pids()
+        watched.update(procs.world_node(self.launch))
+        return watched
 
     # -- the master and the world --------------------------------------------------------
     def _master(self):
@@ -241,25 +241,28 @@ class WarmHost(object):
                                master_uri='http://localhost:%d' % self.port)
 
     def _await_core(self, deadline):
-        """True once the worker's master and rosout are up (/use_sim_time set); False when
-        roscore exited (its port was taken)."""
+        """True once the worker's own master answers (its pid: on a port just taken by
+        another worker's master, that one would); then /use_sim_time is set and rosout
+        started (procs.Core.up). False when the master exited (its port was taken)."""
         m = self._master()
-        while time.monotonic() < deadline and self.core.alive():
-            try:
-                m.lookupNode('/rosout')
-                m.setParam('/use_sim_time', True)
-                return True
-            except Exception:  # noqa: BLE001 - not up yet
-                time.sleep(0.02)
-        return False
 
-    def _start_world(self, runner, key, deadline, wait=False):
-        """roslaunch the world (``wait``: --wait, while roscore is still starting)."""
+        def up():
+            try:
+                return m.getPid() == self.core.master.p.pid
+            except Exception:  # noqa: BLE001 - not up yet
+                return not self.core.alive()
+        if not procs.poll(up, deadline, first=0.005) or not self.core.alive():
+            return False
+        self.core.up(m)
+        return True
+
+    def _start_world(self, runner, key, deadline):
+        """roslaunch the world on the worker's master (which is up: --wait only says the
+        launch starts no master of its own)."""
         path, args = runner.launch_args()
         # the phone where the launch file puts it: each reload sets the scenario's pose
         args = [a for a in args if not a.startswith('phone_')]
-        self.launch = Proc(['roslaunch'] + (['--wait'] if wait else []) + [path] + args,
-                           self.env(), self.log_path)
+        self.launch = Proc(['roslaunch', '--wait', path] + args, self.env(), self.log_path)
         self.rss_base = None
         self.key = key
         self.log_offset = 0
@@ -316,7 +319,7 @@ class WarmHost(object):
         self._reap(wait=True)
         self._stop_world()
         if self.core is not None:
-            procs.kill_tree(self.core)
+            self.core.kill()
             self.core = None
         if not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.dir, ignore_errors=True)

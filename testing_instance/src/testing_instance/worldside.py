@@ -3,11 +3,11 @@ watched, its log.
 
 A run's world is one of four kinds, told by the runner's options:
 
-- **embedded** (the default, ``embed.py``): a roscore of the run's own; the launch file's
-  parameters set and its other nodes started; the World built in this process, whose node
+- **embedded** (the default, ``embed.py``): a ROS core of the run's own (``procs.Core``:
+  rosmaster and rosout); the launch file's parameters set and its other nodes started; the World built in this process, whose node
   this process becomes (``init_node``), and stepped through its services as function calls;
-- **launched** (``--world-node``, or a launch file that cannot be embedded): ``roslaunch``
-  of the launch file on a free port;
+- **launched** (``--world-node``, or a launch file that cannot be embedded): a ROS core of
+  the run's own, and ``roslaunch --wait`` of the launch file on it;
 - **warm** (a farm's worker, ``warm.WarmHost``): a master and a loaded world kept from the
   last scenario, reset for this one;
 - **attached** (``--attach``, rostest): a world somebody else started; its seed and
@@ -49,8 +49,9 @@ class WorldSide(object):
         self.embed_required = embed_required
         self.warm = warm
         self.launch_args = launch_args
-        self.proc = None           # the world's process: roslaunch, roscore (embedded,
-                                   # replay) or the warm world's launch
+        self.core = None           # procs.Core: the run's own master and rosout (not
+                                   # attached, not warm)
+        self.proc = None           # the world's process: roslaunch, the warm world's launch
         self.launch_procs = []     # embedded: the launch file's other nodes
         self.launch_plan = None    # embedded: embed.LaunchPlan
         self.host = None           # embedded: the sim_world WorldHost
@@ -79,91 +80,71 @@ class WorldSide(object):
         if self.embedded and self._start_embedded(deadline):
             return
         if not self.attach:
-            m = self.start_master(self._launch, deadline)
+            self.start_master(deadline)
+            self._launch(deadline)
 
-            # roslaunch sets the launch file's parameters before it starts rosout: once
-            # rosout is there, the apps can start (and read them) while the world loads
-            def rosout():
-                try:
-                    return bool(m.lookupNode('/rosout'))
-                except Exception:  # noqa: BLE001 - not yet registered
-                    return not self.proc.alive()
-            poll(rosout, deadline, first=0.005)
-
-    def _launch(self):
+    def _launch(self, deadline):
+        """``roslaunch --wait`` of the launch file on the run's master (started after the
+        master answers: on a port taken by another job's master it would set its parameters
+        and start its nodes there). Returns once roslaunch has set the launch file's
+        parameters (it sets them all before it starts its first node): the apps can start
+        and read them while the world loads."""
         path, args = self.launch_args()
-        cmd = ['roslaunch', '-p', str(self.port), path] + args
-        self.proc = Proc(cmd, self.env(), os.path.join(self.run_dir, 'world.log'))
+        self.proc = Proc(['roslaunch', '--wait', path] + args, self.env(),
+                         os.path.join(self.run_dir, 'world.log'))
 
-    def start_roscore(self):
-        """A master (and rosout) of the run's own: embedded, or a replay's."""
-        self.proc = Proc(['roscore', '-p', str(self.port)], self.env(),
-                         os.path.join(self.run_dir, 'roscore.log'))
+        def first_node():
+            return not self.proc.alive() or any(
+                any(a.startswith('__name:=') for a in procs.cmdline(pid))
+                for pid in procs.descendants(self.proc.p.pid)[1:])
+        poll(first_node, deadline, first=0.005)
+
+    def start_core(self):
+        """The run's own master and rosout (procs.Core) on ``self.port``."""
+        self.core = procs.Core(self.port, self.env(), self.run_dir)
 
     def wait_master(self, deadline):
+        """Until the run's own master answers: it is the rosmaster this run started (its
+        pid: on a port just taken by another job's master, that one would answer)."""
         import rosgraph
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
 
         def up():
-            if self.proc is not None and not self.proc.alive():
-                raise RunError('the world exited while starting (code %s)'
-                               % self.proc.p.returncode, self.log_tail())
+            if not self.core.alive():
+                raise RunError('the ROS master exited while starting (code %s)'
+                               % self.core.master.p.returncode, self.log_tail())
             try:
-                # getSystemState: only a master answers it (getPid is any node's API, and a
-                # node of another job may hold this port for a moment)
-                m.getSystemState()
-                return True
+                return m.getPid() == self.core.master.p.pid
             except Exception:  # noqa: BLE001 - not up yet
                 return False
         if poll(up, deadline, first=0.005):
-            return
+            return m
         raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
                                                            self.sc.timeout), self.log_tail())
 
-    def start_master(self, start, deadline, meanwhile=None, before_sim_time=None):
-        """``start()`` (roslaunch or roscore: self.proc) on a free port until its master
-        answers; ``meanwhile()`` runs once while the first one starts. The master, with
-        /use_sim_time set: rospy reads it at init_node (the launch file sets it too, maybe
-        later), else this node would time messages by the wall clock.
-        ``before_sim_time(master)`` runs before /use_sim_time is set."""
-        import rosgraph
+    def start_master(self, deadline, meanwhile=None):
+        """The run's own master and rosout (procs.Core) on a free port, once the master
+        answers, with /use_sim_time set (``Core.up``): rospy reads it at init_node, else
+        this node would time messages by the wall clock. ``meanwhile()`` runs once while
+        the first master starts. Returns the master (rosgraph.Master)."""
         for attempt in (1, 2):
             if self.port is None or attempt == 2:
                 self.port = free_port()
-            start()
+            self.start_core()
             if attempt == 1 and meanwhile is not None:
                 meanwhile()
             try:
-                self.wait_master(deadline)
+                m = self.wait_master(deadline)
                 break
             except RunError:
                 # the free port was taken by another process between the check and the
                 # master's bind (parallel jobs): once more on a new port
                 if attempt == 2 or time.monotonic() >= deadline:
                     raise
-                self.proc.stop(grace=2.0)
-        m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
-        if before_sim_time is not None:
-            before_sim_time(m)
-        m.setParam('/use_sim_time', True)
+                self.core.stop(grace=2.0)
+        self.core.up(m)
+        self.watch.update(self.core.pids())
         return m
-
-    @staticmethod
-    def rosout_started(master, deadline):
-        """Wait (at most until ``deadline``, or 5 s) until roscore's rosout has started:
-        it publishes /rosout_agg. A roscpp node reads /use_sim_time once, as it starts, and
-        only then subscribes to /clock; rosout needs no sim time (it passes the log lines'
-        own stamps on). Had it started after the run set /use_sim_time, every /clock tick
-        went to it over TCP (about 80 us of the world's thread each; a recorded 20 s sensors
-        scenario's timeline took 1.72-1.82 s with it, 1.50-1.54 s without), and whether it
-        did was a race."""
-        def started():
-            try:
-                pubs = master.getSystemState()[0]
-            except Exception:  # noqa: BLE001 - the master is being asked too early
-                return False
-            return any(t == '/rosout_agg' and '/rosout' in ns for t, ns in pubs)
-        poll(started, min(deadline, time.monotonic() + 5.0), first=0.005)
 
     def _start_embedded(self, deadline):
         """A master of its own, the launch file's parameters and other nodes; the world
@@ -172,19 +153,19 @@ class WorldSide(object):
         from .embed import plan_launch
         path, args = self.launch_args()
 
-        def plan():          # roslaunch's loader (xacro) runs while the master starts
+        def plan():
+            # roslaunch's loader (xacro) runs while the master starts. The renderer's
+            # imports (OpenCV, PyOpenGL: 0.23 s) are left to the first step_world that
+            # needs them (a camera with a subscriber: World.prepare_renderer): the master
+            # (procs.Core) is up in 0.15 s, no longer long enough to hide them.
             self.launch_plan = plan_launch(path, args, self.port)
-            if self.launch_plan.world is not None:
-                # and the renderer's imports (OpenCV: 0.2 s), which the world's first
-                # step_world needs when a camera has a subscriber (World.prepare_renderer)
-                import sim_world.render  # noqa: F401
-        m = self.start_master(self.start_roscore, deadline, meanwhile=plan,
-                              before_sim_time=lambda m: self.rosout_started(m, deadline))
+        m = self.start_master(deadline, meanwhile=plan)
         if self.launch_plan.world is None:
             if self.embed_required:
                 raise RunError('--embedded: %s' % self.launch_plan.why)
-            procs.kill_tree(self.proc)
-            self.proc, self.embedded = None, False
+            self.core.kill()
+            self.core, self.embedded, self.port = None, False, None
+            self.watch.clear()
             return False
         self.launch_plan.set_params(m)
         self.launch_procs = self.launch_plan.start_nodes(self.env(), self.run_dir)
@@ -310,10 +291,10 @@ class WorldSide(object):
 
     # -- watching --------------------------------------------------------------------------
     def find_watched(self):
-        """The master and the world node below roslaunch: watched by pid (roslaunch keeps
-        running when its master dies)."""
+        """The master (procs.Core, or the warm worker's) and the world node below roslaunch:
+        watched by pid (roslaunch keeps running when either dies)."""
         self.watch.update(self.warm.watched() if self.warm is not None
-                          else procs.master_and_world(self.proc))
+                          else procs.world_node(self.proc))
 
     def world_pids(self):
         """The pids of the world's node (this process, embedded)."""
@@ -336,10 +317,13 @@ class WorldSide(object):
             raise RunError('the world node %s (embedded in this run) was shut down at sim '
                            'time %.3f s (rosnode kill?)' % (self.launch_plan.world_name,
                                                             fault_t()), self.log_tail())
+        if self.core is not None and not self.core.alive():
+            raise RunError('the ROS master died at sim time %.3f s (exit code %s)'
+                           % (fault_t(), self.core.master.p.returncode),
+                           self.log_tail() + self._ros_log(procs.MASTER))
         if self.proc is not None and not self.proc.alive():
-            raise RunError('the %s died at sim time %.3f s (exit code %s)'
-                           % ('ROS master (roscore)' if self.embedded else 'world',
-                              fault_t(), self.proc.p.returncode), self.log_tail())
+            raise RunError('the world died at sim time %.3f s (exit code %s)'
+                           % (fault_t(), self.proc.p.returncode), self.log_tail())
 
     def any_gone(self):
         """Is the master or the world gone (roslaunch takes the master down with its
@@ -366,6 +350,8 @@ class WorldSide(object):
             return self.warm.log_tail()
         if self.proc is not None:
             return tail(self.proc.log_path)
+        if self.core is not None:            # a replay's: its master's output
+            return self.core.log_tail()
         return []
 
     def _ros_log(self, what):
@@ -396,13 +382,13 @@ class WorldSide(object):
             # the world is this process (it ends with it); its launch nodes and apps stop
             # as a run's apps do, the master goes at once
             procs.stop_run(self.launch_procs + [p for _n, p in apps])
-            if self.proc is not None:
-                procs.kill_tree(self.proc)
             if self.logfile is not None:
                 self.logfile.close()     # its file stays for the log tails
         else:
             procs.stop_run([p for _n, p in apps], self.proc,
                            self.watch.get(procs.WORLD_NODE))
+        if self.core is not None:        # the master and rosout go at once (nothing
+            self.core.kill()             # of theirs is needed any more)
 
 
 def launch_args(sc, seed, rtf, report=None):

@@ -16,6 +16,7 @@ import re
 import time
 
 from .clock import ReplayClock
+from .procs import poll
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
 from .results import RunError
 
@@ -154,14 +155,15 @@ def replay_run(r):
     clock.publish(Clock(rospy.Time.from_sec(r.t)))
     r.start_apps()
     r.subscribe_all()
-    # wait until every app that subscribes an input is connected to our publisher
+    # wait until every subscriber of a replayed topic is connected to our publisher: the
+    # apps', and this node's own (rospy connects to itself over TCP: its publisher counts
+    # the connection only once it has accepted it; a message published before that was
+    # lost, the recording's first magnetometer message once under load)
     import rosgraph as rg
     _p, subs, _s = rg.Master('/scenario_runner').getSystemState()
-    want = {t: [n for n in nodes if n != rospy.get_name()] for t, nodes in subs if t in pubs}
-    deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline and any(
-            pubs[t].get_num_connections() < len(n) for t, n in want.items()):
-        time.sleep(0.02)
+    want = {t: len(nodes) for t, nodes in subs if t in pubs}
+    poll(lambda: all(pubs[t].get_num_connections() >= n for t, n in want.items()),
+         time.monotonic() + 10.0)
     r.replay_meta = meta
     r.write_meta()
     def publish(topic, m, t):

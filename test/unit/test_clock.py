@@ -13,9 +13,11 @@ def test_replay_clock_publishes_a_slice_in_order_with_clock_before_each():
     assert c.step_to(0.25) == 0.25
     assert out == [('clock', 0.1), ('pub', '/a', 'a1'), ('ev', 'e', 0.2), ('clock', 0.25),
                    ('pub', '/b', 'b1'), ('clock', 0.25)]
+    assert c.counts == {'/a': 1, '/b': 1}        # events are not published
     del out[:]
     assert c.step_to(0.5) == 0.5
     assert out == [('clock', 0.3), ('pub', '/a', 'a2'), ('clock', 0.5)]
+    assert c.counts == {'/a': 2, '/b': 1}
 
 
 def test_world_clock_returns_the_reached_time_and_reports_a_dead_world():

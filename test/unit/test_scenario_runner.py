@@ -152,3 +152,43 @@ def test_the_start_up_is_told_by_its_phases_which_add_up_to_the_figure():
     r.startup = 1.3
     assert Runner.startup_phases(r)[0][0] == 'master'
     assert Runner.startup_phases(SimpleNamespace(wall0=0.0, startup=None, phases=[])) == []
+
+
+def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(monkeypatch):
+    """sync_replayed: the replay's own messages on the topics subscribed before it began
+    are waited for by count (they come back through this node's own subscriptions), not by
+    a quiet period; then the apps (appwatch), then the held messages are timed. What never
+    comes back is an ERROR naming the topic and the counts."""
+    import threading
+    import time
+    from types import SimpleNamespace
+    from testing_instance import runner as runner_mod
+    from testing_instance.inbox import Inbox
+    from testing_instance.results import RunError
+    from testing_instance.runner import Runner
+    order = []
+    r = SimpleNamespace(inbox=Inbox(), intake=SimpleNamespace(subs={'/a': 1, '/b': 1}),
+                        apps=SimpleNamespace(wait_answered=lambda wake: order.append('apps')),
+                        stamp_held=lambda: order.append('stamped'), replayed_subs=None,
+                        sync_wall=0.0, t=0.05)
+    r.inbox.put(0.01, '/a', 'a1')
+
+    def late():
+        time.sleep(0.1)
+        order.append('b arrives')
+        r.inbox.put(0.02, '/b', 'b1')
+    threading.Thread(target=late).start()
+    t0 = time.monotonic()
+    Runner.sync_replayed(r, {'/a': 1, '/b': 1, '/not_subscribed': 7})
+    assert time.monotonic() - t0 >= 0.09
+    assert order == ['b arrives', 'apps', 'stamped']
+    assert r.replayed_subs == {'/a', '/b'}
+    # a topic subscribed later (it missed the earlier messages) is not counted
+    r.intake.subs['/c'] = 1
+    Runner.sync_replayed(r, {'/a': 1, '/b': 1, '/c': 5})
+    monkeypatch.setattr(runner_mod, 'HANDSHAKE_WATCHDOG', 0.05)
+    r.t = 0.1
+    with pytest.raises(RunError) as e:
+        Runner.sync_replayed(r, {'/a': 3, '/b': 1})
+    assert str(e.value) == ('slice handshake: 0 s of wall time after the replay reached sim '
+                            'time 0.100 s, messages it published have not come back: /a (1 of 3)')

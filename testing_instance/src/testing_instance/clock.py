@@ -27,11 +27,13 @@ class WorldClock(object):
 class ReplayClock(object):
     """msgs: [(t, topic, msg)] sorted by t; publish(topic, msg, t) sends a recorded input,
     tick(t) publishes /clock, on_event(msg, t) handles a recorded timeline event (topic
-    ``events_topic``)."""
+    ``events_topic``). ``counts``: {topic: messages published so far}, the replay's side of
+    the slice handshake (Runner.sync_replayed), as a world's step answer is the world's."""
 
     def __init__(self, msgs, publish, tick, on_event, events_topic):
         self._msgs = msgs
         self._i = 0
+        self.counts = {}
         self._publish = publish
         self._tick = tick
         self._on_event = on_event
@@ -47,5 +49,6 @@ class ReplayClock(object):
                 continue
             self._tick(t)
             self._publish(topic, msg, t)
+            self.counts[topic] = self.counts.get(topic, 0) + 1
         self._tick(t_next)
         return t_next

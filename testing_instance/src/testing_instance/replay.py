@@ -180,13 +180,10 @@ def replay_run(r):
     while True:
         r.check_world()
         r.t = src.step_to(min(end, r.t + r.sc.slice))
-        r.settle(quiet=0.03)
-        r.stamp_held()
+        r.sync_replayed(src.counts)        # exactly what it published, and the apps' answers
         r.subscribe_all(wait_connections=False)
         r.drain()
         if r.t >= end - 1e-9:
             break
-    r.settle()
-    r.stamp_held()
     r.drain()
     r.missing_topics_are_errors('is neither in the recording nor published by an app')

@@ -96,6 +96,7 @@ class Runner(Actions):
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
         self.published = None      # {topic: n} the world handed us, from the last step
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
+        self.replayed_subs = None  # a replay: the topics it counts (sync_replayed)
         self.topics_checked = 0.0  # sim time of the last look at the master's topics
         self.topics_dirty = False  # a model was spawned since: look again at once
 
@@ -303,6 +304,30 @@ class Runner(Actions):
         self._counted_once = True
         if intake.uncounted:
             self.inbox.settle(0.02)
+        self.apps.wait_answered(self.inbox.wake)
+        self.stamp_held()
+        self.sync_wall += time.monotonic() - w0
+
+    def sync_replayed(self, published):
+        """A replay's slice handshake: wait until every message the replay published on a
+        topic this node subscribes to (``published``: {topic: n so far}, ReplayClock.counts)
+        has come back through its subscription (rospy connects this node to itself over TCP),
+        then for the apps by evidence (appwatch), as live. No quiet period: a replay waited
+        30 ms of wall time after each 0.05 s slice, most of a replay's wall time. A
+        generous watchdog names what never arrived."""
+        w0 = time.monotonic()
+        if self.replayed_subs is None:
+            # the topics subscribed before the replay published anything (it subscribes
+            # everything it wants first): a later subscription missed the earlier messages
+            self.replayed_subs = set(self.intake.subs)
+        want = {t: n for t, n in published.items() if t in self.replayed_subs}
+        missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG, world=False)
+        if missing:
+            raise RunError('slice handshake: %.0f s of wall time after the replay reached sim '
+                           'time %.3f s, messages it published have not come back: %s' % (
+                               HANDSHAKE_WATCHDOG, self.t, ', '.join(
+                                   '%s (%d of %d)' % (t, got, n)
+                                   for t, (got, n) in sorted(missing.items()))))
         self.apps.wait_answered(self.inbox.wake)
         self.stamp_held()
         self.sync_wall += time.monotonic() - w0

@@ -219,3 +219,38 @@ def test_stopping_a_run_leaves_no_respawned_child_of_the_launch_behind(tmp_path,
             n.kill()
             n.wait()
             n.stdout.close()
+
+
+def test_a_launch_on_the_runs_core_reads_an_empty_roscore_and_keeps_the_logging(tmp_path):
+    """procs.launch_env: roslaunch --wait reads roscore.xml from ROS_ETC_DIR even when it
+    starts no master; there it finds an empty one (no rosout, no rosversion commands). The
+    logging configuration rospy would have found is named (ROS_HOME's first), unless one
+    is named already."""
+    import roslaunch.config
+    import roslaunch.xmlloader
+    etc, home = tmp_path / 'etc', tmp_path / 'home'
+    (home / 'config').mkdir(parents=True)
+    etc.mkdir()
+    (etc / 'python_logging.conf').write_text('[loggers]\n')
+    env = procs.launch_env({'ROS_ETC_DIR': str(etc), 'ROS_HOME': str(tmp_path / 'none')},
+                           str(tmp_path / 'run'))
+    assert env['ROS_ETC_DIR'] == str(tmp_path / 'run' / 'etc_ros')
+    assert env['ROS_PYTHON_LOG_CONFIG_FILE'] == str(etc / 'python_logging.conf')
+    old = os.environ.get('ROS_ETC_DIR')
+    os.environ['ROS_ETC_DIR'] = env['ROS_ETC_DIR']
+    try:
+        config = roslaunch.config.ROSLaunchConfig()
+        roslaunch.config.load_roscore(roslaunch.xmlloader.XmlLoader(), config, verbose=False)
+        assert config.nodes_core == [] and config.params == {}
+    finally:
+        if old is None:
+            del os.environ['ROS_ETC_DIR']
+        else:
+            os.environ['ROS_ETC_DIR'] = old
+    (home / 'config' / 'python_logging.yaml').write_text('version: 1\n')
+    env = procs.launch_env({'ROS_ETC_DIR': str(etc), 'ROS_HOME': str(home)},
+                           str(tmp_path / 'run'))
+    assert env['ROS_PYTHON_LOG_CONFIG_FILE'] == str(home / 'config' / 'python_logging.yaml')
+    env = procs.launch_env({'ROS_ETC_DIR': str(etc), 'ROS_PYTHON_LOG_CONFIG_FILE': '/x.conf'},
+                           str(tmp_path / 'run'))
+    assert env['ROS_PYTHON_LOG_CONFIG_FILE'] == '/x.conf'

@@ -11,7 +11,7 @@ import uuid
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Proc', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
+__all__ = ['Core', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
            'frozen_tree', 'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes',
            'state', 'tail', 'receivers_busy', 'tcp_queues', 'thread_states']
 
@@ -172,6 +172,39 @@ class Core(object):
 
     def log_tail(self, n=25):
         return tail(self.master.log_path, n)
+
+
+EMPTY_ROSCORE = """<launch>
+  <!-- roslaunch on a run's own core (procs.Core): no rosout, no rosversion commands -->
+</launch>
+"""
+
+
+def launch_env(env, run_dir):
+    """The environment of a ``roslaunch --wait`` on a run's Core. roslaunch reads
+    roscore.xml (ROS_ETC_DIR's first) even when it starts no master, and runs its two
+    ``rosversion`` commands for /rosversion and /rosdistro (0.21 s), which Core.up sets: its
+    ROS_ETC_DIR here holds an empty roscore.xml. The logging configuration stays the one
+    rospy would find (ROS_HOME's config, then the ROS_ETC_DIR it had), named by
+    ROS_PYTHON_LOG_CONFIG_FILE unless that is set already."""
+    import rospkg
+    env = dict(env)
+    etc = os.path.join(run_dir, 'etc_ros')
+    path = os.path.join(etc, 'roscore.xml')
+    if not os.path.exists(path):
+        os.makedirs(etc, exist_ok=True)
+        with open(path, 'w') as f:
+            f.write(EMPTY_ROSCORE)
+    if not env.get('ROS_PYTHON_LOG_CONFIG_FILE'):
+        for d in (os.path.join(rospkg.get_ros_home(env), 'config'),
+                  rospkg.get_etc_ros_dir(env)):
+            found = [os.path.join(d, 'python_logging.' + ext) for ext in ('conf', 'yaml')
+                     if os.path.isfile(os.path.join(d, 'python_logging.' + ext))]
+            if found:
+                env['ROS_PYTHON_LOG_CONFIG_FILE'] = found[0]
+                break
+    env['ROS_ETC_DIR'] = etc
+    return env
 
 
 def rosout_path():

@@ -262,7 +262,8 @@ class WarmHost(object):
         path, args = runner.launch_args()
         # the phone where the launch file puts it: each reload sets the scenario's pose
         args = [a for a in args if not a.startswith('phone_')]
-        self.launch = Proc(['roslaunch', '--wait', path] + args, self.env(), self.log_path)
+        self.launch = Proc(['roslaunch', '--wait', '--skip-log-check', path] + args,
+                           procs.launch_env(self.env(), self.dir), self.log_path)
         self.rss_base = None
         self.key = key
         self.log_offset = 0

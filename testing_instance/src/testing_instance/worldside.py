@@ -90,7 +90,8 @@ class WorldSide(object):
         parameters (it sets them all before it starts its first node): the apps can start
         and read them while the world loads."""
         path, args = self.launch_args()
-        self.proc = Proc(['roslaunch', '--wait', path] + args, self.env(),
+        self.proc = Proc(['roslaunch', '--wait', '--skip-log-check', path] + args,
+                         procs.launch_env(self.env(), self.run_dir),
                          os.path.join(self.run_dir, 'world.log'))
 
         def first_node():

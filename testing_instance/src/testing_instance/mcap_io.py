@@ -75,78 +75,8 @@ def _one_writer(path):
     os.makedirs(d, exist_ok=True)
     if is_mcap_path(path):
         return McapWriter(path)
-    return _lean_bag_class()(str(path), 'w')
-
-
-_LEAN = []
-
-
-def _lean_bag_class():
-    """rosbag.Bag for writing only. rosbag keeps an index entry of every message written in
-    memory (~200 bytes each: about 1 GB over an hour of every phone sensor, found by
-    bench/soak), needed only to read an open bag; the file's own index is written chunk by
-    chunk from the current chunk's entries, which it keeps."""
-    if not _LEAN:
-        import rosbag
-
-        class LeanBag(rosbag.Bag):
-            def __init__(self, f, mode='w', *a, **kw):
-                rosbag.Bag.__init__(self, f, mode, *a, **kw)
-                self._file = _KnownPosition(self._file)
-
-            def write(self, topic, msg, t=None, raw=False, connection_header=None):
-                rosbag.Bag.write(self, topic, msg, t, raw, connection_header)
-                self._connection_indexes.clear()
-        _LEAN.append(LeanBag)
-    return _LEAN[0]
-
-
-class _KnownPosition(object):
-    """A bag file being written, for rosbag.Bag, that keeps its own position. rosbag's
-    write seeks to the end before every message and asks for the position twice; on a
-    Python buffered file each of these is a system call (lseek), and the seek also writes
-    out the buffer, so every message cost three system calls and a write. Each releases the
-    GIL, and in the runner's process, where the world steps in one thread among rospy's,
-    getting it back is what they cost (``_bag_write``: 38 us a message in a run against 9 us
-    alone). Here a seek to the end while already there and a position asked are answered
-    from the position this object follows; the bytes written are the same."""
-
-    def __init__(self, f):
-        self._f = f
-        self._pos = None               # None: not known (ask the file)
-        self._at_end = False
-
-    def seek(self, offset, whence=os.SEEK_SET):
-        if offset == 0 and whence == os.SEEK_END and self._at_end:
-            return self._pos
-        self._pos = self._f.seek(offset, whence)
-        self._at_end = offset == 0 and whence == os.SEEK_END
-        return self._pos
-
-    def tell(self):
-        if self._pos is None:
-            self._pos = self._f.tell()
-        return self._pos
-
-    def write(self, data):
-        n = self._f.write(data)
-        if self._pos is not None:
-            self._pos += n
-        return n
-
-    def _lost(self):
-        self._pos, self._at_end = None, False
-
-    def read(self, *a):
-        self._lost()
-        return self._f.read(*a)
-
-    def truncate(self, *a):
-        self._lost()
-        return self._f.truncate(*a)
-
-    def __getattr__(self, name):          # close, flush, fileno, closed, name...
-        return getattr(self._f, name)
+    from .bagwriter import BagWriter       # rosbag.Bag's bytes, less Python a message
+    return BagWriter(str(path))
 
 
 def open_writer(paths):

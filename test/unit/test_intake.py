@@ -173,7 +173,10 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
 
     class Master(object):
         def __init__(self, *a, **k):
-            pass
+            asked['Master'] += 1
+
+        def getPublishedTopics(self, ns):
+            return [('/mobile_device/imu', 'sensor_msgs/Imu')]
 
         def getSystemState(self):
             asked['getSystemState'] += 1
@@ -219,3 +222,6 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
     # nothing new: no master round trip at all
     assert it.subscribe(['/mobile_device/imu', '/app/out']) == []
     assert asked['getSystemState'] == 1
+    # one master proxy for the intake's look-ups: its connection stays open
+    assert it.published_types() == {'/mobile_device/imu': 'sensor_msgs/Imu'}
+    assert asked['Master'] == 1

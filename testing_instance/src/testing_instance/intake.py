@@ -41,6 +41,7 @@ class Intake(object):
         self.subs = {}             # topic -> rospy.Subscriber
         self.topic_types = {}      # topic -> type, of the topics somebody publishes
         self.world_node = None     # the caller id serving /gazebo/step_world
+        self._master = None        # rosgraph.Master, kept (master())
         self.world_topics = set()  # subscribed topics the world publishes
         self.uncounted = set()     # subscribed topics with publishers that do not count
         self.hold_unstamped = False  # once stepping: unstamped messages are held
@@ -63,9 +64,18 @@ class Intake(object):
         """{topic: type} of the topics somebody publishes (getTopicTypes would also list
         topics only subscribed to); OSError or rosgraph.MasterException when the master
         does not answer."""
-        import rosgraph
-        self.topic_types = dict(rosgraph.Master('/scenario_runner').getPublishedTopics('/'))
+        self.topic_types = dict(self.master().getPublishedTopics('/'))
         return self.topic_types
+
+    def master(self):
+        """The master's API for this intake's own look-ups (the runner's thread): one
+        rosgraph.Master, whose connection stays open (rosmaster speaks HTTP/1.1; a new
+        proxy a call cost a TCP connection and a handler thread in the master: 2.4 ms of
+        each periodic look for new topics in a run, 0.96 against 0.60 ms alone)."""
+        if self._master is None:
+            import rosgraph
+            self._master = rosgraph.Master('/scenario_runner')
+        return self._master
 
     def subscribe(self, wanted, check_fields=None, apps=(), wait_connections=True):
         """Subscribe every topic of ``wanted`` that is published and not yet subscribed
@@ -103,13 +113,11 @@ class Intake(object):
                     t for t in new if self.subs[t].get_num_connections() == 0]))
         return new
 
-    @staticmethod
-    def _publishers():
+    def _publishers(self):
         """getSystemState's publishers ([topic, [node, ...]], ...), or None when the master
         does not answer."""
-        import rosgraph
         try:
-            return rosgraph.Master('/scenario_runner').getSystemState()[0]
+            return self.master().getSystemState()[0]
         except Exception:  # noqa: BLE001 - OSError, rosgraph.MasterException
             return None
 
@@ -136,9 +144,8 @@ class Intake(object):
         publishes only while subscribed, so a connection still being accepted on the world's
         side would cost the first message in one run and not in another. ``pubs``:
         getSystemState's publishers, asked for when not given."""
-        import rosgraph
         from xmlrpc.client import ServerProxy
-        master = rosgraph.Master('/scenario_runner')
+        master = self.master()
         me = self.rospy.get_name()
         world = self.world_name()
         if pubs is None:

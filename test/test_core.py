@@ -19,14 +19,8 @@ def test_a_core_of_its_own_with_sim_time_and_a_rosout_without_it(tmp_path):
     core = procs.Core(port, env, str(tmp_path))
     try:
         m = rosgraph.Master('/test_core', master_uri=env['ROS_MASTER_URI'])
-
-        def own():
-            try:
-                return m.getPid() == core.master.p.pid
-            except OSError:
-                return False
-        assert procs.poll(own, time.monotonic() + 30.0, first=0.005), \
-            procs.tail(core.master.log_path)
+        assert core.wait_up(m, time.monotonic() + 30.0), procs.tail(core.master.log_path)
+        assert m.getPid() == core.master.p.pid
         core.up(m)
         assert m.getParam('/use_sim_time') is True
         assert m.getParam('/rosdistro').endswith('\n')

@@ -98,10 +98,11 @@ class BagWriter(object):
         if self._file is None:
             raise ValueError('I/O operation on closed bag')
         secs, nsecs = t.secs, t.nsecs
+        when = (secs, nsecs)
         chunk = self._chunk
         if chunk is None:
             chunk = self._chunk = bytearray()
-            self._start = self._end = (secs, nsecs)
+            self._start = self._end = when
             self._index = {}             # conn id -> [(secs, nsecs, offset)], first-use order
             self._ordered = {}
         c = self._conns.get(topic)
@@ -117,16 +118,16 @@ class BagWriter(object):
         if entries is None:
             entries = self._index[c.id] = []
             self._ordered[c.id] = True
-        elif (secs, nsecs) < entries[-1][:2]:
+        elif when < entries[-1][:2]:
             self._ordered[c.id] = False
         entries.append((secs, nsecs, len(chunk)))
         chunk += c.prefix
         chunk += _TIME_LEN.pack(secs, nsecs, len(data))
         chunk += data
-        if (secs, nsecs) > self._end:
-            self._end = (secs, nsecs)
-        elif (secs, nsecs) < self._start:
-            self._start = (secs, nsecs)
+        if when > self._end:
+            self._end = when
+        elif when < self._start:
+            self._start = when
         if len(chunk) > self._chunk_threshold:
             self._write_chunk()
 

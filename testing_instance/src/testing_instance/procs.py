@@ -11,9 +11,10 @@ import uuid
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline', 'descendants', 'first_run', 'free_port',
-           'frozen_tree', 'kill_tree', 'read_chars', 'ros_env', 'rss_kb', 'socket_inodes',
-           'state', 'tail', 'receivers_busy', 'tcp_queues', 'thread_states']
+__all__ = ['Core', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline', 'descendants',
+           'first_run', 'free_port', 'frozen_tree', 'kill_tree', 'read_chars', 'ros_env',
+           'rss_kb', 'socket_inodes', 'state', 'tail', 'receivers_busy', 'tcp_queues',
+           'thread_states', 'world_node']
 
 
 def poll(cond, deadline, first=0.001, most=0.02):
@@ -138,6 +139,24 @@ class Core(object):
     def alive(self):
         """The master is running (rosout is not watched: nothing of a run needs it)."""
         return self.master.alive()
+
+    def wait_up(self, master, deadline):
+        """Until ``master`` (rosgraph.Master on this core's port) answers with the pid of
+        this core's rosmaster (on a port just taken by another job's master, that one would
+        answer); False at ``deadline`` or once the rosmaster has exited (its port taken)."""
+        answered = []
+
+        def done():
+            if not self.alive():
+                return True
+            try:
+                if master.getPid() == self.master.p.pid:
+                    answered.append(True)
+            except Exception:  # noqa: BLE001 - not up yet
+                pass
+            return bool(answered)
+        poll(done, deadline, first=0.005)
+        return bool(answered)
 
     def up(self, master):
         """The master (rosgraph.Master) answers: set /use_sim_time and roscore's

@@ -245,13 +245,7 @@ class WarmHost(object):
         another worker's master, that one would); then /use_sim_time is set and rosout
         started (procs.Core.up). False when the master exited (its port was taken)."""
         m = self._master()
-
-        def up():
-            try:
-                return m.getPid() == self.core.master.p.pid
-            except Exception:  # noqa: BLE001 - not up yet
-                return not self.core.alive()
-        if not procs.poll(up, deadline, first=0.005) or not self.core.alive():
+        if not self.core.wait_up(m, deadline):
             return False
         self.core.up(m)
         return True

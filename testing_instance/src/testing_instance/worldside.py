@@ -4,8 +4,9 @@ watched, its log.
 A run's world is one of four kinds, told by the runner's options:
 
 - **embedded** (the default, ``embed.py``): a ROS core of the run's own (``procs.Core``:
-  rosmaster and rosout); the launch file's parameters set and its other nodes started; the World built in this process, whose node
-  this process becomes (``init_node``), and stepped through its services as function calls;
+  rosmaster and rosout); the launch file's parameters set and its other nodes started; the
+  World built in this process, whose node this process becomes (``init_node``), and stepped
+  through its services as function calls;
 - **launched** (``--world-node``, or a launch file that cannot be embedded): a ROS core of
   the run's own, and ``roslaunch --wait`` of the launch file on it;
 - **warm** (a farm's worker, ``warm.WarmHost``): a master and a loaded world kept from the
@@ -109,17 +110,11 @@ class WorldSide(object):
         pid: on a port just taken by another job's master, that one would answer)."""
         import rosgraph
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
-
-        def up():
-            if not self.core.alive():
-                raise RunError('the ROS master exited while starting (code %s)'
-                               % self.core.master.p.returncode, self.log_tail())
-            try:
-                return m.getPid() == self.core.master.p.pid
-            except Exception:  # noqa: BLE001 - not up yet
-                return False
-        if poll(up, deadline, first=0.005):
+        if self.core.wait_up(m, deadline):
             return m
+        if not self.core.alive():
+            raise RunError('the ROS master exited while starting (code %s)'
+                           % self.core.master.p.returncode, self.log_tail())
         raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
                                                            self.sc.timeout), self.log_tail())
 

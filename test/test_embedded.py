@@ -55,6 +55,29 @@ def test_embedded_world_records_what_the_world_node_records(tmp_path):
             assert x == y, '%s message %d (time, bytes) differs embedded and not' % (topic, i)
 
 
+def test_an_embedded_run_without_other_publishers_looks_for_topics_only_when_told(tmp_path):
+    """Without apps, the embedded runner skips the periodic look at the master's topics
+    when this process declared no publisher since the last look (no other process can
+    have): fewer looks than with the sim_world node, and still the same recording, message
+    by message, spawned head and late topics included."""
+    no_apps = re.sub(r'apps:\n(  - .*\n)+', '', MESSY % {'ex': EX}).replace(
+        'duration: 1.0', 'duration: 3.0')
+    assert 'apps' not in no_apps and 'spawn_model' in no_apps
+    sc = tmp_path / 'no_apps.yaml'
+    sc.write_text(no_apps)
+    rc_e, emb = run_scenario(sc, '--embedded', '--record', tmp_path / 'emb.bag')
+    rc_c, node = run_scenario(sc, '--world-node', '--record', tmp_path / 'node.bag')
+    assert rc_e == rc_c == 0, emb + node
+    looks = [int(re.search(r'^handshake: .*; (\d+) looks for new topics$', out, re.M).group(1))
+             for out in (emb, node)]
+    assert looks[1] >= 4, node            # the first, after the spawn, at 1, 2 and 3 s
+    assert looks[0] < looks[1], (looks, emb)
+    e, c = bag_messages(tmp_path / 'emb.bag'), bag_messages(tmp_path / 'node.bag')
+    assert sorted(e) == sorted(c) and '/mobile_device/imu_sensor_data' in c
+    for topic in c:
+        assert e[topic] == c[topic], '%s differs embedded and with the node' % topic
+
+
 @pytest.mark.parametrize('mode', ['--embedded', '--world-node'])
 def test_apps_see_the_world_node_of_the_launch_file(tmp_path, mode):
     """The world's topics and services are served by /sim_world, embedded or launched;

@@ -335,3 +335,39 @@ def test_a_message_begun_directly_is_finished_by_the_writer_and_never_dropped():
         _close(c, t)
         a.close()
         b.close()
+
+
+def test_local_delivery_looks_its_subscriber_up_once_per_subscription(monkeypatch):
+    """A topic's in-process subscriber is looked up in rospy's topic manager (under its lock)
+    once, not per message; a closed one (its last Subscriber unregistered) is looked up
+    again, so a later subscription gets the messages and a gone one gets none."""
+    from types import SimpleNamespace
+    subs, lookups = {'/t': None}, []
+
+    def lookup(topic):
+        lookups.append(topic)
+        sub = subs[topic]
+        return None if sub is None or sub.closed else sub
+    monkeypatch.setattr(fastpub, '_subscriber_impl', lookup)
+    got = []
+    first = SimpleNamespace(closed=False, queue_size=0, callbacks=[('cb', None)],
+                            _invoke_callback=lambda msg, cb, args: got.append(('first', msg)))
+    d = fastpub._LocalDelivery('/t', inline=True)
+    try:
+        d.put('m0')                               # nobody subscribed: dropped, looked up
+        subs['/t'] = first
+        for i in range(1, 4):
+            d.put('m%d' % i)
+        assert got == [('first', 'm1'), ('first', 'm2'), ('first', 'm3')]
+        assert len(lookups) == 2                  # m0 found none, m1 found first, kept
+        first.closed = True                       # unsubscribed
+        d.put('m4')
+        assert got[-1] == ('first', 'm3') and len(lookups) == 3
+        second = SimpleNamespace(closed=False, queue_size=0, callbacks=[('cb', None)],
+                                 _invoke_callback=lambda m, cb, a: got.append(('second', m)))
+        subs['/t'] = second                       # subscribed again: a new implementation
+        d.put('m5')
+        assert got[-1] == ('second', 'm5') and d.handed == 4
+        assert d.subscriber() is second and len(lookups) == 4    # kept again
+    finally:
+        d.close()

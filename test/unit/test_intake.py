@@ -225,3 +225,18 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
     # one master proxy for the intake's look-ups: its connection stays open
     assert it.published_types() == {'/mobile_device/imu': 'sensor_msgs/Imu'}
     assert asked['Master'] == 1
+
+
+def test_on_new_publisher_hears_this_processes_publishers_only(monkeypatch):
+    """Intake.on_new_publisher: rospy's registration listeners (as rospy tells the master)
+    call back for each publisher this process declares, not for subscribers or services."""
+    from rospy.impl import registration
+    from rospy.impl.registration import Registration, RegistrationListeners
+    listeners = RegistrationListeners()       # this test's own, not the process's
+    monkeypatch.setattr(registration, 'get_registration_listeners', lambda: listeners)
+    heard = []
+    Intake(Inbox(), Recorder()).on_new_publisher(heard.append)
+    listeners.notify_added('/mobile_device/late', 'std_msgs/String', Registration.PUB)
+    listeners.notify_added('/mobile_device/sub', 'std_msgs/String', Registration.SUB)
+    listeners.notify_added('/gazebo/srv', 'rosrpc://x:1', Registration.SRV)
+    assert heard == ['/mobile_device/late']

@@ -192,3 +192,46 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
         Runner.sync_replayed(r, {'/a': 3, '/b': 1})
     assert str(e.value) == ('slice handshake: 0 s of wall time after the replay reached sim '
                             'time 0.100 s, messages it published have not come back: /a (1 of 3)')
+
+
+def test_topics_are_looked_at_again_when_something_can_have_made_new_ones():
+    """The periodic look at the master's topics (every TOPIC_RECHECK s of sim time) where
+    another process can publish: a sim_world node, apps, other nodes of the launch file. An
+    embedded run without them makes it only when this process declared a publisher since
+    the last look (at the same sim time: recordings equal the sim_world node's); after a
+    spawn (topics_dirty) and while an expectation's topic is not subscribed, always."""
+    from types import SimpleNamespace
+    from testing_instance.runner import TOPIC_RECHECK, Runner
+    from testing_instance.timeline import Conditions
+
+    def runner(embedded, apps=(), launch_procs=()):
+        r = SimpleNamespace(embedded=embedded, sc=SimpleNamespace(apps=list(apps)),
+                            world=SimpleNamespace(launch_procs=list(launch_procs)),
+                            topics_dirty=False, topics_new=False, topics_checked=0.0,
+                            t=0.05,
+                            intake=SimpleNamespace(subs={'/a': 1}), expectations=[],
+                            conditions=Conditions([]))
+        r._others_publish = lambda: Runner._others_publish(r)
+        return r
+    for r, periodic in ((runner(False), True), (runner(True), False),
+                        (runner(True, apps=[{'name': 'app'}]), True),
+                        (runner(True, launch_procs=[SimpleNamespace(alive=lambda: True)]),
+                         True),
+                        (runner(True, launch_procs=[SimpleNamespace(alive=lambda: False)]),
+                         False)):
+        assert not Runner._topics_stale(r)                  # within TOPIC_RECHECK
+        r.t = TOPIC_RECHECK
+        assert Runner._topics_stale(r) is periodic
+        r.topics_dirty = True
+        assert Runner._topics_stale(r)
+        r.topics_dirty = False
+        r.expectations = [SimpleNamespace(topic='/b', verdict=None)]   # not subscribed yet
+        assert Runner._topics_stale(r)
+        r.expectations[0].verdict = 'pass'
+        assert Runner._topics_stale(r) is periodic
+    # a publisher this process declares: the next periodic look is made, not one at once
+    r = runner(True)
+    Runner._new_own_topic(r, '/mobile_device/new_sensor')
+    assert r.topics_new and not Runner._topics_stale(r)
+    r.t = TOPIC_RECHECK
+    assert Runner._topics_stale(r)

@@ -239,7 +239,18 @@ class _LocalDelivery(object):
         self.handed = 0
         self.dropped = 0
         self.times = None
+        self._sub = None            # the subscriber implementation last looked up
         _locals.append(self)
+
+    def subscriber(self):
+        """The live subscriber implementation of the topic in this node, or None. One look-up
+        in rospy's topic manager (under its lock) per subscription, not per message: rospy
+        closes an implementation when its last Subscriber unregisters and makes a new one
+        for a later subscription, so a closed one is looked up again."""
+        sub = self._sub
+        if sub is None or sub.closed:
+            sub = self._sub = _subscriber_impl(self.topic)
+        return sub
 
     def close(self):
         """The publisher is gone (unregistered): the delivery thread ends."""
@@ -263,7 +274,7 @@ class _LocalDelivery(object):
                 del self.times[:len(self.times) - MAX_TIMES]
 
     def put(self, msg):
-        sub = _subscriber_impl(self.topic)
+        sub = self.subscriber()
         if sub is None or self.closed:
             return
         if self.inline:
@@ -319,7 +330,7 @@ class _LocalDelivery(object):
                     if rospy.is_shutdown():
                         return
                 msgs, self.queue = self.queue, []
-            sub = _subscriber_impl(self.topic)
+            sub = self.subscriber()
             if sub is not None:
                 self._deliver(sub, msgs)
 
@@ -369,17 +380,18 @@ def deliver_inline(callback, on=True):
         _inline_callbacks.discard(callback)
 
 
-def _only_local(impl, topic):
+def _only_local(impl, local):
     """True when every connection of the publisher ``impl`` is to a live subscriber in this
-    node (an embedded world's runner, rospy's own /clock subscriber): then rospy would
-    serialize each message only for :class:`_LocalConnection` to drop the bytes."""
+    node (an embedded world's runner, rospy's own /clock subscriber; ``local``: the topic's
+    :class:`_LocalDelivery`): then rospy would serialize each message only for
+    :class:`_LocalConnection` to drop the bytes."""
     conns = impl.connections
     if not conns or impl.closed:
         return False
     for c in conns:
         if type(c) is not _LocalConnection:
             return False
-    return _subscriber_impl(topic) is not None
+    return local.subscriber() is not None
 
 
 def _number(impl, msg):
@@ -444,7 +456,7 @@ def no_yield(pub, inline_local=False):
             return args_kwds_to_message(pub.data_class, args, kwds)
 
         def publish(*args, **kwds):
-            if _only_local(impl, topic):
+            if _only_local(impl, local):
                 msg = message(args, kwds)
                 if _number(impl, msg):
                     local.put(msg)

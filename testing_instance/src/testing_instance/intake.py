@@ -54,6 +54,22 @@ class Intake(object):
         if own_topics is not None:
             self.own_topics = own_topics
 
+    def on_new_publisher(self, callback):
+        """callback(topic) whenever this process declares a publisher from now on: an
+        embedded world's plugins made after a spawn or later in a run. rospy's registration
+        listeners, through which rospy itself tells the master."""
+        from rospy.impl.registration import (Registration, RegistrationListener,
+                                             get_registration_listeners)
+
+        class Listener(RegistrationListener):
+            def reg_added(self, resolved_name, data_type_or_uri, reg_type):
+                if reg_type == Registration.PUB:
+                    callback(resolved_name)
+
+            def reg_removed(self, resolved_name, data_type_or_uri, reg_type):
+                pass
+        get_registration_listeners().add_listener(Listener())
+
     def world_name(self):
         """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
         namespace), else the default /sim_world."""

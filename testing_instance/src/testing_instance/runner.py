@@ -99,6 +99,8 @@ class Runner(Actions):
         self.replayed_subs = None  # a replay: the topics it counts (sync_replayed)
         self.topics_checked = 0.0  # sim time of the last look at the master's topics
         self.topics_dirty = False  # a model was spawned since: look again at once
+        self.topics_new = False    # embedded: this process declared a publisher since
+        self.topic_looks = 0       # looks at the master's topics (the handshake line)
 
     # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
     def start_after(self, event_id, t):
@@ -174,6 +176,15 @@ class Runner(Actions):
         self.rospy = rospy
         self.intake.start(rospy, self.embedded, self._own_topics)
         self.world.init_node(rospy, self.intake.on_message)
+        if self.embedded:
+            self.intake.on_new_publisher(self._new_own_topic)
+
+    def _new_own_topic(self, topic):
+        """A publisher declared in this process (an embedded world's): the next periodic
+        look at the master's topics is not skipped (_topics_stale). Not a look at once:
+        the sim_world node's runs look by the same sim-time rule, and a latched message's
+        time in the recording is when it was subscribed."""
+        self.topics_new = True
 
     def _world_settings(self):
         """Attached: the seed and real-time factor are the running world's."""
@@ -210,6 +221,7 @@ class Runner(Actions):
             return self.t
 
     def _topic_types(self):
+        self.topic_looks += 1
         try:
             return self.intake.published_types()
         except Exception as e:  # noqa: BLE001 - OSError, rosgraph.MasterException
@@ -251,13 +263,28 @@ class Runner(Actions):
     def _topics_stale(self):
         """Look for new topics now? After a spawn, while a topic that an expectation or a
         waiting condition reads is not subscribed yet, and every TOPIC_RECHECK s of sim time
-        (a master round trip per slice was the runner's largest cost in a recording run)."""
-        if self.topics_dirty or self.t - self.topics_checked >= TOPIC_RECHECK - 1e-9:
+        (a master round trip per slice was the runner's largest cost in a recording run)
+        unless nothing can have declared a publisher since the last look: an embedded run
+        without other processes that may publish, where this process declared none."""
+        if self.topics_dirty:
+            return True
+        if self.t - self.topics_checked >= TOPIC_RECHECK - 1e-9 and (
+                self.topics_new or self._others_publish()):
             return True
         subs = self.intake.subs
         if any(e.topic not in subs and e.verdict is None for e in self.expectations):
             return True
         return self.conditions.unsubscribed(subs)
+
+    def _others_publish(self):
+        """Can a process other than this one declare a publisher on this run's master? Not
+        in an embedded run without apps and with no other node of its launch file still
+        running (the phone's spawner has exited by sim time 0; a node that exits
+        unregisters its publishers): the master is the run's own (its port is the run's),
+        rosout publishes before the first look, and this process's new publishers are
+        heard (_new_own_topic)."""
+        return not self.embedded or bool(self.sc.apps) or any(
+            p.alive() for p in self.world.launch_procs)
 
     def _check_fields(self, topic, cls):
         proto = cls()
@@ -554,8 +581,10 @@ class Runner(Actions):
                 self._sync()
                 last_settle = self.t
                 if self._topics_stale():   # topics that appeared late (apps, spawned models)
+                    # (before the look: a publisher declared meanwhile marks it again)
+                    self.topics_dirty = self.topics_new = False
                     self.subscribe_all()
-                    self.topics_checked, self.topics_dirty = self.t, False
+                    self.topics_checked = self.t
             self.drain()
             self._check_conditions()
         # the last slice's messages (the handshake: exactly those the world handed over)
@@ -624,11 +653,12 @@ class Runner(Actions):
                             if t in self.intake.subs}   # (rospy's own /clock: not ours)
             lost = sum(self.dropped.values())
             self.say('handshake: %d messages from the world, %d dropped by its queues%s; '
-                     '%.2f s of wall time waiting for slices%s' % (
+                     '%.2f s of wall time waiting for slices%s; %d looks for new topics' % (
                          got, lost, '' if not lost else ' (%s)' % ', '.join(
                              '%s %d' % kv for kv in sorted(self.dropped.items())),
                          self.sync_wall, '' if self.apps.waited is None else
-                         ' (%.2f s of it for the apps to answer)' % self.apps.waited))
+                         ' (%.2f s of it for the apps to answer)' % self.apps.waited,
+                         self.topic_looks))
         for v in result.verdicts:
             self.say(v.line())
         if result.error:

@@ -87,8 +87,14 @@ def test_a_missing_script_is_an_error_naming_the_entry_and_starts_no_app(tmp_pat
     assert apps.procs == [] and apps.watch is None and apps.waited is None
 
 
-def test_without_apps_nothing_is_started_or_waited_for(tmp_path):
+def test_without_apps_nothing_is_started_or_waited_for(tmp_path, monkeypatch):
+    import rosgraph
+
+    def no_master(*a, **k):
+        raise AssertionError('the master was asked with no app to wait for')
+    monkeypatch.setattr(rosgraph, 'Master', no_master)
     apps = Apps(_scenario(tmp_path, []), lambda: dict(os.environ), str(tmp_path), print)
     assert apps.launch(lambda q: None) == [] and apps.names() == set()
+    apps.await_ready()            # no master look-ups: they waited for the GIL at start-up
     apps.wait_answered(lambda s: None)                    # returns at once
     apps.check(0.0, lambda: 0.0)

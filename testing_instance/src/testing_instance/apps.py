@@ -65,6 +65,8 @@ class Apps(object):
 
     def await_ready(self):
         """Wait until every app is registered with the master and connected."""
+        if not self.procs:
+            return
         import rosgraph
         names = list(self.procs)
         m = rosgraph.Master('/scenario_runner')

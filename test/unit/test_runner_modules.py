@@ -3,6 +3,7 @@ import ast
 import json
 import os
 
+import pytest
 import rosbag
 import rospy
 from std_msgs.msg import String
@@ -254,3 +255,51 @@ def test_a_launch_on_the_runs_core_reads_an_empty_roscore_and_keeps_the_logging(
     env = procs.launch_env({'ROS_ETC_DIR': str(etc), 'ROS_PYTHON_LOG_CONFIG_FILE': '/x.conf'},
                            str(tmp_path / 'run'))
     assert env['ROS_PYTHON_LOG_CONFIG_FILE'] == '/x.conf'
+
+
+def test_a_launch_imports_roslaunch_first_and_talks_only_to_the_master_it_is_given(tmp_path):
+    """procs.Launch: roslaunch's Python start runs while the run's master starts, but it
+    talks to no master until go(uri): not to the one its environment names (another job's
+    on a port taken first), then to the given one; without go it ends with the run."""
+    import socket
+    import time
+    from testing_instance import procs
+    env_master, given = socket.socket(), socket.socket()
+    for s in (env_master, given):
+        s.bind(('127.0.0.1', 0))
+        s.listen(8)
+        s.settimeout(0.2)
+    launch_file = tmp_path / 'p.launch'
+    launch_file.write_text('<launch><param name="x" value="1"/></launch>\n')
+    env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d' % env_master.getsockname()[1],
+               ROS_HOME=str(tmp_path), ROS_LOG_DIR=str(tmp_path))
+    p = procs.Launch([str(launch_file)], procs.launch_env(env, str(tmp_path)),
+                     str(tmp_path / 'world.log'))
+    try:
+        assert p.cmd[-3:] == ['--wait', '--skip-log-check', str(launch_file)]
+        deadline = time.monotonic() + 1.5
+        while time.monotonic() < deadline:        # waiting for go: no master is asked
+            with pytest.raises(socket.timeout):
+                env_master.accept()
+        assert p.alive()
+        p.go('http://127.0.0.1:%d' % given.getsockname()[1])
+        deadline, conn = time.monotonic() + 30, None
+        while conn is None and time.monotonic() < deadline and p.alive():
+            try:
+                conn, _addr = given.accept()      # roslaunch --wait asks the given master
+            except socket.timeout:
+                pass
+        assert conn is not None, open(tmp_path / 'world.log').read()
+        conn.close()
+        with pytest.raises(socket.timeout):
+            env_master.accept()
+    finally:
+        p.stop(grace=5.0)
+        env_master.close()
+        given.close()
+    assert not p.alive()
+    # without go: it ends when the run stops it
+    q = procs.Launch([str(launch_file)], procs.launch_env(env, str(tmp_path)),
+                     str(tmp_path / 'w2.log'))
+    q.stop(grace=5.0)
+    assert not q.alive()

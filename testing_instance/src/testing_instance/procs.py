@@ -5,13 +5,14 @@ import signal
 import socket
 import struct
 import subprocess
+import sys
 import threading
 import time
 import uuid
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline', 'descendants',
+__all__ = ['Core', 'Launch', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline', 'descendants',
            'first_run', 'free_port', 'frozen_tree', 'kill_tree', 'read_chars', 'ros_env',
            'rss_kb', 'socket_inodes', 'state', 'tail', 'receivers_busy', 'tcp_queues',
            'thread_states', 'world_node']
@@ -72,12 +73,12 @@ class Proc(object):
     """A child process in its own process group, output to a log file; it gets SIGTERM
     when the process that started it dies."""
 
-    def __init__(self, cmd, env, log_path, cwd=None):
+    def __init__(self, cmd, env, log_path, cwd=None, stdin=subprocess.DEVNULL):
         self.cmd = cmd
         self.log_path = log_path
         self.log = open(log_path, 'w')
         self.p = subprocess.Popen(cmd, env=env, stdout=self.log, stderr=subprocess.STDOUT,
-                                  stdin=subprocess.DEVNULL, start_new_session=True, cwd=cwd,
+                                  stdin=stdin, start_new_session=True, cwd=cwd,
                                   preexec_fn=_term_with_parent)
 
     def alive(self):
@@ -197,6 +198,42 @@ EMPTY_ROSCORE = """<launch>
   <!-- roslaunch on a run's own core (procs.Core): no rosout, no rosversion commands -->
 </launch>
 """
+
+
+#: the child of Launch: roslaunch's imports first, then its master's URI from stdin
+PRELAUNCH = """\
+import os, sys
+import roslaunch
+uri = sys.stdin.readline().strip()
+if not uri:
+    sys.exit(0)
+os.environ['ROS_MASTER_URI'] = uri
+sys.argv[0] = 'roslaunch'
+roslaunch.main()
+"""
+
+
+class Launch(Proc):
+    """``roslaunch --wait --skip-log-check ARGS`` whose Python start runs while the run's
+    master starts. roslaunch's imports take 0.3-0.45 s; roslaunch was started only once the
+    master answered, because a roslaunch started earlier could find another job's master on
+    a port taken between free_port and the bind. This process imports roslaunch at once and
+    then waits for :meth:`go`: it talks to no master until it is given the URI of the one
+    this run has checked is its own (Core.wait_up). Without ``go`` (the runner failed or
+    died first) it exits on its own when its stdin closes, or with the run's other
+    processes."""
+
+    def __init__(self, args, env, log_path):
+        Proc.__init__(self, [sys.executable, '-c', PRELAUNCH, '--wait', '--skip-log-check']
+                      + list(args), env, log_path, stdin=subprocess.PIPE)
+
+    def go(self, master_uri):
+        """Run roslaunch on master_uri (the run's own master, up and checked)."""
+        try:
+            self.p.stdin.write((master_uri + '\n').encode())
+            self.p.stdin.close()
+        except OSError:
+            pass          # it exited meanwhile: the run's check reports it with its log
 
 
 def launch_env(env, run_dir):

@@ -81,19 +81,20 @@ class WorldSide(object):
         if self.embedded and self._start_embedded(deadline):
             return
         if not self.attach:
+            path, args = self.launch_args()
+            # roslaunch's Python start runs while the master starts (procs.Launch)
+            self.proc = procs.Launch([path] + args, procs.launch_env(self.env(), self.run_dir),
+                                     os.path.join(self.run_dir, 'world.log'))
             self.start_master(deadline)
             self._launch(deadline)
 
     def _launch(self, deadline):
-        """``roslaunch --wait`` of the launch file on the run's master (started after the
-        master answers: on a port taken by another job's master it would set its parameters
-        and start its nodes there). Returns once roslaunch has set the launch file's
+        """``roslaunch --wait`` of the launch file on the run's master, once that master
+        answers (on a port taken by another job's master it would set its parameters and
+        start its nodes there). Returns once roslaunch has set the launch file's
         parameters (it sets them all before it starts its first node): the apps can start
         and read them while the world loads."""
-        path, args = self.launch_args()
-        self.proc = Proc(['roslaunch', '--wait', '--skip-log-check', path] + args,
-                         procs.launch_env(self.env(), self.run_dir),
-                         os.path.join(self.run_dir, 'world.log'))
+        self.proc.go(self.master_uri())
 
         def first_node():
             return not self.proc.alive() or any(

@@ -46,7 +46,7 @@ import time
 from sim_world.netutil import wait_for_service
 
 from . import procs
-from .procs import Proc, free_port
+from .procs import free_port
 from .results import EXIT_ERROR, RunError
 
 __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
@@ -85,6 +85,7 @@ class WarmHost(object):
         answering; this process's node on that master. ``prepare`` then resets the world
         for the scenario; a farm's spare worker calls only this (Pool._deal)."""
         key = runner.world_key()
+        pre = None                       # a fresh master's world: procs.Launch, told later
         for attempt in (1, 2):
             fresh = self.core is None or not self.core.alive()
             if fresh and self.core is not None and _rospy_up():
@@ -97,12 +98,15 @@ class WarmHost(object):
                 self.port = free_port()
                 os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
                 os.environ.setdefault('ROS_HOSTNAME', 'localhost')
+                if pre is None:          # roslaunch's Python start while the master starts
+                    pre = self._new_launch(runner)
                 self.core = procs.Core(self.port, self.env(), self.dir)
                 if not self._await_core(deadline):
                     # the free port was taken between the look and the master's bind
                     # (another worker): once more on a new port
                     self.core.stop(grace=2.0)
                     if attempt == 2:
+                        pre.stop(grace=2.0)
                         raise RunError('no ROS master on port %d for the warm world'
                                        % self.port, self.core.log_tail())
                     continue
@@ -113,7 +117,7 @@ class WarmHost(object):
                 self._stop_world()
                 if not fresh:            # the killed world's registrations go too
                     self._clear(None, {'/rosout', '/scenario_runner'})
-                self._start_world(runner, key, deadline)
+                self._start_world(runner, key, deadline, pre)
                 self._await_world(deadline)
             else:
                 self._clear(self.base_params, self.base_nodes | set(CORE_NODES))
@@ -250,14 +254,20 @@ class WarmHost(object):
         self.core.up(m)
         return True
 
-    def _start_world(self, runner, key, deadline):
-        """roslaunch the world on the worker's master (which is up: --wait only says the
-        launch starts no master of its own)."""
+    def _new_launch(self, runner):
+        """procs.Launch of runner's world: roslaunch imported, waiting for its master."""
         path, args = runner.launch_args()
         # the phone where the launch file puts it: each reload sets the scenario's pose
         args = [a for a in args if not a.startswith('phone_')]
-        self.launch = Proc(['roslaunch', '--wait', '--skip-log-check', path] + args,
-                           procs.launch_env(self.env(), self.dir), self.log_path)
+        return procs.Launch([path] + args, procs.launch_env(self.env(), self.dir),
+                            self.log_path)
+
+    def _start_world(self, runner, key, deadline, launch=None):
+        """roslaunch the world on the worker's master (which is up: --wait only says the
+        launch starts no master of its own); ``launch``: one started with that master
+        (_new_launch)."""
+        self.launch = launch if launch is not None else self._new_launch(runner)
+        self.launch.go('http://localhost:%d' % self.port)
         self.rss_base = None
         self.key = key
         self.log_offset = 0

@@ -25,7 +25,7 @@ import time
 from sim_world.netutil import wait_for_service
 
 from . import procs
-from .procs import Proc, free_port, poll, tail
+from .procs import free_port, poll, tail
 from .results import RunError
 
 __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']

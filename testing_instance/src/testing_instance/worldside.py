@@ -152,9 +152,10 @@ class WorldSide(object):
 
         def plan():
             # roslaunch's loader (xacro) runs while the master starts. The renderer's
-            # imports (OpenCV, PyOpenGL: 0.23 s) are left to the first step_world that
-            # needs them (a camera with a subscriber: World.prepare_renderer): the master
-            # (procs.Core) is up in 0.15 s, no longer long enough to hide them.
+            # imports (OpenCV, PyOpenGL: 0.2-0.6 s) start in the background once the phone
+            # is spawned (sim_world.node._preload_renderer) and the first step that draws
+            # waits for the rest: started here, beside the master, they lengthened the
+            # master phase by as much as they saved (on 2 cores both are CPU-bound).
             self.launch_plan = plan_launch(path, args, self.port)
         m = self.start_master(deadline, meanwhile=plan)
         if self.launch_plan.world is None:

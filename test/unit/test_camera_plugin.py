@@ -278,17 +278,57 @@ def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
     frames0 = world.renderer.frames
     p.update(0.0)
     assert p.frames == 0 and world.renderer.frames == frames0          # nobody looks
-    p._pubs['info'].n = 1                                              # camera_info only
+    assert p._pubs['info'].sent == []
+    p._pubs['image'].n = 1                                             # the image
     p.update(0.1)
     assert p.frames == 1 and len(p._pubs['image'].sent) == 1 and len(p._pubs['info'].sent) == 1
     assert p._pubs['points'].sent == [] and p.last_cloud is None
-    p._pubs['info'].n = 0
+    p._pubs['image'].n = 0
     p._pubs['points'].n = 1                                            # points only
     p.update(0.2)
     assert p.frames == 2 and len(p._pubs['points'].sent) == 1
     cloud = p._pubs['points'].sent[0]
     assert (cloud.width, cloud.height) == (32, 24)
     assert p._pubs['image'].sent[-1].header.stamp == p._pubs['info'].sent[-1].header.stamp
+    p._pubs = {}
+
+
+def test_camera_info_alone_is_published_at_every_tick_without_a_frame():
+    p, world = _load(_variant(imageSize='32 24'))
+    stamps = iter(range(100))
+    world.ros_now = lambda: next(stamps)
+    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    frames0 = world.renderer.frames
+    p._pubs['info'].n = 1                                              # camera_info only
+    assert not p.will_draw()                                           # no renderer for it
+    for k in range(3):
+        p.update(0.1 * k)
+    assert p.frames == 0 and world.renderer.frames == frames0          # nothing drawn
+    infos = p._pubs['info'].sent
+    assert [m.header.stamp for m in infos] == [0, 1, 2]                # one per tick
+    assert (infos[0].width, infos[0].height) == (32, 24) and infos[0].K[0] == p.camera.intr.fx
+    assert p._pubs['image'].sent == [] and p.last_info is infos[-1]
+    p._pubs['image'].n = 1                                             # now the image too
+    p.update(0.3)
+    assert p.frames == 1 and len(infos) == 4 and len(p._pubs['image'].sent) == 1
+    assert infos[-1].header.stamp == p._pubs['image'].sent[0].header.stamp
+    p._pubs = {}
+
+
+def test_depth_camera_info_alone_draws_nothing():
+    root = ET.fromstring(_variant(imageSize='40 30', depthImageTopicName='depth/image_raw'))
+    root.find('gazebo_ros_camera').set('plugin', 'libgazebo_ros_openni_kinect.so')
+    p, world = _load(ET.tostring(root, encoding='unicode'))
+    world.ros_now = lambda: None
+    p._pubs = {k: _Pub() for k in ('image', 'info', 'points', 'depth', 'depth_info')}
+    frames0 = world.renderer.frames
+    p._pubs['depth_info'].n = 1
+    p.update(0.0)
+    assert p.frames == 0 and world.renderer.frames == frames0
+    assert len(p._pubs['depth_info'].sent) == 1 and p._pubs['info'].sent == []
+    p._pubs['image'].n = 1                      # a frame without depth: its depth info too
+    p.update(0.1)
+    assert p.frames == 1 and p._pubs['depth'].sent == [] and len(p._pubs['depth_info'].sent) == 2
     p._pubs = {}
 
 

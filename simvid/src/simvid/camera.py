@@ -18,7 +18,10 @@ Reads both URDF syntaxes::
 Publishes ``image_raw`` (rgb8), ``camera_info`` (same stamp, every frame) and ``points``
 (PointCloud2, only while subscribed), all stamped with sim time; subscribes ``set_hfov``
 (radians) and ``set_update_rate`` (Hz) next to the image topic. Renders only while someone
-subscribes. Registered as ``libgazebo_ros_openni_kinect.so`` / ``libgazebo_ros_depth_camera.so``
+subscribes to the image, the points or the depth image: a subscriber of ``camera_info``
+alone gets it at the camera's rate without a frame drawn (Gazebo's camera publishes it only
+with images; a recording of every non-image topic would pay a render per message).
+Registered as ``libgazebo_ros_openni_kinect.so`` / ``libgazebo_ros_depth_camera.so``
 it also publishes ``depth/image_raw`` (32FC1, metres along the optical axis, NaN where
 nothing is seen; ``depthImageTopicName``) and ``depth/camera_info``
 (``depthImageCameraInfoTopicName``); ``pointCloudCutoff``/``pointCloudCutoffMax`` limit the
@@ -245,23 +248,33 @@ class CameraPlugin(Plugin):
     def will_draw(self):
         return bool(self.wanted()[0])
 
+    def _subscribed(self, *keys):
+        return any(k in self._pubs and self._pubs[k].get_num_connections() > 0 for k in keys)
+
     def wanted(self):
-        """(anything wanted, depth wanted) by subscribers: the image, camera_info, points or
-        (depth cameras) the depth image or its info."""
+        """(a frame wanted, depth wanted): does a subscriber need a rendered frame: the image,
+        the points or (depth cameras) the depth image. camera_info alone is no reason to
+        render (:meth:`info_wanted`): it does not depend on the pixels."""
         if not self._pubs:
             return True, self.force_render
+        depth = self._subscribed('points', 'depth')
+        return self._subscribed('image') or depth or self.force_render, depth
 
-        def subs(*keys):
-            return any(k in self._pubs and self._pubs[k].get_num_connections() > 0
-                       for k in keys)
-        depth = subs('points', 'depth', 'depth_info')
-        img = subs('image', 'info')
-        return img or depth or self.force_render, depth
+    def info_wanted(self):
+        """(camera_info wanted, depth camera_info wanted) by subscribers (without ROS: the
+        camera_info, kept in ``last_info``)."""
+        if not self._pubs:
+            return True, False
+        return self._subscribed('info'), self._subscribed('depth_info')
 
     def update(self, sim_time):
         self._apply_pending(sim_time)
         want, want_depth = self.wanted()
         if not want:
+            # only the camera_info (a recording of every non-image topic, an image_proc
+            # waiting for its image): at the camera's rate, without a frame drawn, so a
+            # lockstep slice has no frame in flight to wait for
+            self._publish_info()
             return
         pose = self.world.link_pose(self.model.name, self.link)
         stamp = self.world.ros_now() if self._pubs else None
@@ -276,6 +289,18 @@ class CameraPlugin(Plugin):
         rgb, depth = self.camera.render(renderer, pose, depth=want_depth)
         self._deliver(rgb, depth, stamp, want_depth)
 
+    def _publish_info(self):
+        """A tick without a frame: the camera_info (and the depth camera's) alone."""
+        info, depth_info = self.info_wanted()
+        if not (info or depth_info):
+            return
+        stamp = self.world.ros_now() if self._pubs else None
+        msg = self.last_info = self.camera.camera_info(stamp, self.frame_id)
+        if info and self._pubs:
+            self._pubs['info'].publish(msg)
+        if depth_info:
+            self._pubs['depth_info'].publish(msg)
+
     def _deliver(self, rgb, depth, stamp, want_depth):
         """The messages of one rendered frame, published."""
         img = self.camera.image_msg(rgb, stamp, self.frame_id, self.encoding)
@@ -285,8 +310,7 @@ class CameraPlugin(Plugin):
         if want_depth:
             if not pubs or pubs['points'].get_num_connections() > 0:
                 cloud = self.camera.cloud_msg(rgb, depth, stamp, self.frame_id, self.cutoff)
-            if 'depth' in pubs and (pubs['depth'].get_num_connections() > 0
-                                    or pubs['depth_info'].get_num_connections() > 0):
+            if 'depth' in pubs and pubs['depth'].get_num_connections() > 0:
                 depth_img = self.camera.depth_msg(depth, stamp, self.frame_id)
         self.frames += 1
         self.last_image, self.last_info, self.last_cloud = img, info, cloud
@@ -299,6 +323,7 @@ class CameraPlugin(Plugin):
                 pubs['points'].publish(cloud)
             if depth_img is not None:
                 pubs['depth'].publish(depth_img)
+            if depth_img is not None or self._subscribed('depth_info'):
                 pubs['depth_info'].publish(info)
 
     def shutdown(self):

@@ -158,6 +158,23 @@ def test_a_bad_world_parameter_is_one_line_and_no_wait(tmp_path):
     assert "sim_world: ~max_step_size must be a number, got 'abc'" in out, out
 
 
+def test_a_misspelt_world_argument_is_one_line_before_anything_starts(tmp_path):
+    """roslaunch ignores an argument its launch file does not declare: the scenario would
+    run on the default camera rate. The runner names it and the close one, and starts no
+    master, world or app (no start-up line)."""
+    f = tmp_path / 'typo.yaml'
+    f.write_text('name: typo\nduration: 0.5\nworld: {args: {camera_rat: 30}}\n')
+    for mode in ('--embedded', '--world-node'):
+        rc, out = run_scenario(f, mode, '--seed', '1', timeout=120)
+        assert rc == 2, out
+        lines = [ln for ln in out.splitlines() if ln.startswith('ERROR')]
+        assert len(lines) == 1, out
+        assert lines[0].startswith('ERROR world.args: camera_rat is not an argument of ')
+        assert 'office.launch, so roslaunch would ignore it. Did you mean camera_rate?' \
+            in lines[0], out
+        assert 'timeline:' not in out and 'start-up:' not in out, out
+
+
 LAB_LAUNCH = """<launch>
   <!-- the office world with its nodes in the namespace /lab and the IMU remapped -->
   <arg name="paused" default="true"/>

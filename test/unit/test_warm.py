@@ -385,3 +385,42 @@ def test_a_worker_dead_before_its_job_is_written_costs_that_job_only(tmp_path,
     warm.Pool(1, python=str(p), spare=False).run([('a', ['a'])], lambda *r: got.append(r))
     assert [(t, rc) for t, rc, _x, _w in got] == [('a', 2)]
     assert 'ERROR the warm worker died (exit code 3)' in got[0][2]
+
+
+# -- the launch file's arguments -----------------------------------------------------------
+def test_a_world_argument_the_launch_file_does_not_declare_is_an_error(tmp_path):
+    """roslaunch ignores an undeclared argument: a misspelt world.args entry would run the
+    scenario on the default without a word."""
+    from testing_instance.results import RunError
+    from testing_instance.worldside import launch_args
+    f = tmp_path / 'k.yaml'
+    f.write_text('duration: 1\nworld: {args: {camera_rat: 30}}\n')
+    with pytest.raises(RunError) as e:
+        launch_args(load(str(f)), 0, 1.0)
+    text = str(e.value)
+    assert 'world.args: camera_rat is not an argument of' in text and 'office.launch' in text
+    assert 'Did you mean camera_rate?' in text and 'display_topic' in text
+    assert '\n' not in text
+    f.write_text('duration: 1\nworld: {args: {camera_rate: 30, display_topic: /a/b}}\n')
+    path, args = launch_args(load(str(f)), 3, 1.0)
+    assert 'camera_rate:=30' in args and 'seed:=3' in args
+
+
+def test_a_launch_file_without_the_runners_arguments_is_an_error(tmp_path):
+    from testing_instance.results import RunError
+    from testing_instance.worldside import declared_args, launch_args
+    (tmp_path / 'w.launch').write_text(
+        '<launch><arg name="paused" default="true"/><arg name="physics" default="ode"/>'
+        '<arg name="real_time_factor" default="1"/><group><arg name="x" default="1"/></group>'
+        '<include file="other.launch"><arg name="seed" value="1"/></include></launch>')
+    assert declared_args(str(tmp_path / 'w.launch')) == {'paused', 'physics',
+                                                         'real_time_factor', 'x'}
+    f = tmp_path / 'k.yaml'
+    f.write_text('duration: 1\nworld: {launch: w.launch, args: {x: 2}}\n')
+    with pytest.raises(RunError) as e:
+        launch_args(load(str(f)), 0, 1.0)
+    assert 'does not declare seed, which run_scenario sets' in str(e.value)
+    # a file that is not XML: roslaunch says what is wrong with it, later
+    (tmp_path / 'w.launch').write_text('<launch')
+    assert declared_args(str(tmp_path / 'w.launch')) is None
+    assert launch_args(load(str(f)), 0, 1.0)[1][-1] == 'x:=2'

@@ -407,9 +407,58 @@ def launch_args(sc, seed, rtf, report=None):
         args += ['phone_%s:=%r' % kv for kv in sorted(start_pose(sc).items())]
     if 'max_step_size' in w:
         args.append('max_step_size:=%r' % w['max_step_size'])
+    own = [a.split(':=', 1)[0] for a in args]
     for k, v in (w.get('args') or {}).items():
         args.append('%s:=%s' % (k, str(v).lower() if isinstance(v, bool) else v))
+    _check_args(path, own, list(w.get('args') or {}))
     return path, args
+
+
+def declared_args(path):
+    """The names of the arguments launch file ``path`` declares (its ``<arg>``s, but for
+    those given to an ``<include>``), or None when it cannot be read as XML (roslaunch
+    then says what is wrong with it)."""
+    import xml.etree.ElementTree as ET
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return None
+    out = set()
+
+    def walk(el):
+        for c in el:
+            if c.tag == 'include':
+                continue
+            if c.tag == 'arg' and c.get('name'):
+                out.add(c.get('name'))
+            walk(c)
+    walk(root)
+    return out
+
+
+def _check_args(path, own, given):
+    """RunError when launch file ``path`` does not declare an argument the run gives it:
+    roslaunch ignores an undeclared command-line argument without a word, so a misspelt
+    ``world.args`` entry (``given``) would leave the default, and a launch file without
+    ``seed`` or ``paused`` (``own``: what run_scenario sets) an unseeded or running world."""
+    import difflib
+    declared = declared_args(path)
+    if declared is None:
+        return
+    for name in given:
+        if name not in declared:
+            close = difflib.get_close_matches(name, sorted(declared), 1)
+            raise RunError('world.args: %s is not an argument of %s, so roslaunch would '
+                           'ignore it.%s Its arguments: %s.'
+                           % (name, path, ' Did you mean %s?' % close[0] if close else '',
+                              ', '.join(sorted(declared)) or 'none'))
+    missing = [n for n in own if n not in declared]
+    if missing:
+        raise RunError('world.launch %s does not declare %s, which run_scenario sets (a '
+                       "scenario's launch file declares paused, seed, real_time_factor and "
+                       'physics%s)' % (path, ', '.join(missing),
+                                       ', and max_step_size when the scenario sets it'
+                                       if 'max_step_size' in missing else ''))
 
 
 def start_pose(sc):

@@ -1,18 +1,18 @@
 """The scenario's apps: black boxes in processes of their own (``apps:`` of a scenario).
 
-``launch`` starts them once the master is up (their Python start-up overlaps the world's
-loading); ``await_ready`` waits until each is registered with the master and every
+``prestart`` starts the Python ones with the run (procs.PreApp: their imports overlap the
+master's start and the world's loading, they talk to no master yet), ``launch`` lets them go
+on once the run's master answers and starts the others; ``await_ready`` waits until each is registered with the master and every
 subscription it has to a published topic is connected (so no app misses the first slice);
 ``check`` tells an app that finished (exit code 0, said once) from one that crashed (the
 run's ERROR, with its log tail); ``wait_answered`` waits, after each slice, until every app
 has answered it (appwatch: evidence from /proc, not a quiet period)."""
 import json
 import os
-import sys
 import time
 
 from .appwatch import AppHung, AppWatch
-from .procs import Proc, poll, tail
+from .procs import PreApp, Proc, poll, tail
 from .results import RunError
 
 __all__ = ['Apps']
@@ -28,39 +28,62 @@ class Apps(object):
         self.env = env
         self.run_dir = run_dir
         self.say = say
-        self.procs = []            # [(node name, Proc)]
+        self.procs = []            # [(node name, Proc)], the prestarted ones from prestart
+        self._plan = None          # [(node name, script or None, args or command)]
         self.finished = set()
         self.watch = None          # AppWatch, once launched
 
     def names(self):
         return {n for n, _p in self.procs}
 
-    def launch(self, own_pending):
-        """Start every app (once); own_pending(queues): why this process still holds app
-        messages not yet delivered (AppWatch). Returns the new Procs."""
-        if self.procs:
-            return []
-        cmds = []                  # every command first: a bad entry starts no app at all
+    def prestart(self):
+        """Start the Python apps' processes now (once), before the world is ready: they
+        import what their scripts import and wait for ``launch`` (procs.PreApp). Every
+        entry is checked first: a bad one starts no app at all (RunError)."""
+        if self._plan is not None:
+            return
+        plan = []
         for i, app in enumerate(self.sc.apps):
             name = app.get('name', 'app%d' % i)
             params = ['_%s:=%s' % (k, json.dumps(v) if not isinstance(v, str) else v)
                       for k, v in (app.get('params') or {}).items()]
+            args = [str(a) for a in app.get('args') or []] + params + ['__name:=%s' % name]
             if 'script' in app:
                 script = self.sc.resolve(app['script'])
                 if not os.path.isfile(script):
                     raise RunError('apps[%d].script: no file %s' % (i, script))
-                cmd = [sys.executable, script]
+                plan.append(('/' + name, script, args))
             else:
                 pkg, _, typ = app['node'].partition('/')
-                cmd = ['rosrun', pkg, typ]
-            cmd += [str(a) for a in app.get('args') or []] + params + ['__name:=%s' % name]
-            cmds.append((name, cmd))
-        for name, cmd in cmds:
-            p = Proc(cmd, self.env(), os.path.join(self.run_dir, '%s.log' % name),
-                     cwd=self.sc.dir)
-            self.procs.append(('/' + name, p))
-        if self.procs:
-            self.watch = AppWatch(self.procs, own_pending, warn=self.say)
+                plan.append(('/' + name, None, ['rosrun', pkg, typ] + args))
+        self._plan = plan
+        for name, script, args in plan:
+            if script is not None:
+                self.procs.append((name, PreApp(script, args, self.env(),
+                                                self._log(name), cwd=self.sc.dir)))
+
+    def _log(self, name):
+        return os.path.join(self.run_dir, '%s.log' % name.lstrip('/'))
+
+    def launch(self, own_pending):
+        """Start every app (once), on the run's master, which answers now: the prestarted
+        ones go on, the others (``node:``) start. own_pending(queues): why this process
+        still holds app messages not yet delivered (AppWatch). Returns the Procs."""
+        if self.watch is not None or not self.sc.apps:
+            return []
+        self.prestart()
+        uri = self.env()['ROS_MASTER_URI']
+        early = iter([p for _n, p in self.procs])      # in the plan's order
+        procs = []
+        for name, script, cmd in self._plan:
+            if script is not None:
+                p = next(early)
+                p.go(uri)
+            else:
+                p = Proc(cmd, self.env(), self._log(name), cwd=self.sc.dir)
+            procs.append((name, p))
+        self.procs = procs
+        self.watch = AppWatch(self.procs, own_pending, warn=self.say)
         return [p for _n, p in self.procs]
 
     def await_ready(self):

@@ -12,7 +12,7 @@ import uuid
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Launch', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline',
+__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline',
            'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree', 'read_chars',
            'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail', 'receivers_busy',
            'tcp_queues', 'thread_states', 'world_node']
@@ -213,27 +213,48 @@ roslaunch.main()
 """
 
 
-class Launch(Proc):
-    """``roslaunch --wait --skip-log-check ARGS`` whose Python start runs while the run's
-    master starts. roslaunch's imports take 0.3-0.45 s; roslaunch was started only once the
-    master answered, because a roslaunch started earlier could find another job's master on
-    a port taken between free_port and the bind. This process imports roslaunch at once and
-    then waits for :meth:`go`: it talks to no master until it is given the URI of the one
-    this run has checked is its own (Core.wait_up). Without ``go`` (the runner failed or
-    died first) it exits on its own when its stdin closes, or with the run's other
-    processes."""
+class _Told(Proc):
+    """A Python process that imports what it needs at once and then waits, talking to no
+    master, until :meth:`go` gives it the URI of the run's master. Without ``go`` (the
+    runner failed or died first) it exits on its own when its stdin closes, or with the
+    run's other processes."""
 
-    def __init__(self, args, env, log_path):
-        Proc.__init__(self, [sys.executable, '-c', PRELAUNCH, '--wait', '--skip-log-check']
-                      + list(args), env, log_path, stdin=subprocess.PIPE)
+    def __init__(self, cmd, env, log_path, cwd=None):
+        Proc.__init__(self, cmd, env, log_path, cwd=cwd, stdin=subprocess.PIPE)
 
     def go(self, master_uri):
-        """Run roslaunch on master_uri (the run's own master, up and checked)."""
+        """Go on, on master_uri (the run's own master, up and checked)."""
         try:
             self.p.stdin.write((master_uri + '\n').encode())
             self.p.stdin.close()
         except OSError:
             pass          # it exited meanwhile: the run's check reports it with its log
+
+
+class Launch(_Told):
+    """``roslaunch --wait --skip-log-check ARGS`` whose Python start runs while the run's
+    master starts. roslaunch's imports take 0.3-0.45 s; roslaunch was started only once the
+    master answered, because a roslaunch started earlier could find another job's master on
+    a port taken between free_port and the bind. This process imports roslaunch at once and
+    then waits for :meth:`go`: it talks to no master until it is given the URI of the one
+    this run has checked is its own (Core.wait_up)."""
+
+    def __init__(self, args, env, log_path):
+        _Told.__init__(self, [sys.executable, '-c', PRELAUNCH, '--wait', '--skip-log-check']
+                       + list(args), env, log_path)
+
+
+PREAPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'preapp.py')
+
+
+class PreApp(_Told):
+    """A scenario's Python app (``script`` with its command-line ``args``), started before
+    the run's world is ready: it imports what the script imports at its top, then waits for
+    :meth:`go` and runs the script (testing_instance.preapp)."""
+
+    def __init__(self, script, args, env, log_path, cwd=None):
+        _Told.__init__(self, [sys.executable, PREAPP, script] + list(args), env, log_path,
+                       cwd=cwd)
 
 
 def launch_env(env, run_dir):

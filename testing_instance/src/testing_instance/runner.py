@@ -473,6 +473,9 @@ class Runner(Actions):
 
     def _start_world(self):
         deadline = time.monotonic() + min(self.sc.timeout, 120.0)
+        # the Python apps import while the master starts and the world loads (or a warm
+        # world is reset); they talk to no master before apps.launch
+        self.apps.prestart()
         self.world.start(deadline)
         self._phase('master')
         if self.warm is not None:
@@ -480,7 +483,7 @@ class Runner(Actions):
             self.warm.prepare(self, deadline)
             self.world.proc = self.warm.launch
             self._phase('warm world')
-        # the apps' Python start-up overlaps the world's loading; start_apps waits for them
+        # the apps go on once the master answers; start_apps waits for them
         self.apps.launch(self._own_pending)
         self.init_ros()
         self._phase('node' if not self.world.embedded else 'node and world')

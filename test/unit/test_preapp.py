@@ -1,0 +1,162 @@
+"""A scenario's Python app started before the world is ready (testing_instance.preapp,
+procs.PreApp): it imports the libraries its script imports at its top, talks to no master
+until it is told the run's, then runs the script as ``python3 SCRIPT ARGS`` would."""
+import json
+import os
+import socket
+import sys
+import time
+
+import pytest
+
+from testing_instance import procs
+from testing_instance.preapp import leading_imports, outside
+
+
+def test_leading_imports_are_the_imports_before_the_first_other_statement(tmp_path):
+    f = tmp_path / 'app.py'
+    f.write_text('"""doc"""\nfrom __future__ import annotations\nimport math, os.path\n'
+                 'import rospy\nfrom sensor_msgs.msg import Imu\n'
+                 'import numpy as np\nX = 1\nimport cv2\n')
+    assert leading_imports(str(f)) == ['math', 'os.path', 'rospy', 'sensor_msgs.msg', 'numpy']
+    f.write_text('import sys\nsys.path.insert(0, "lib")\nimport mylib\n')
+    assert leading_imports(str(f)) == ['sys']            # what follows may need that path
+    f.write_text('import json\nfrom . import sibling\nimport yaml\n')
+    assert leading_imports(str(f)) == ['json']
+    f.write_text('def broken(:\n')
+    assert leading_imports(str(f)) == []                 # the script says so itself
+    assert leading_imports(str(tmp_path / 'missing.py')) == []
+
+
+def test_only_libraries_outside_the_apps_folder_are_imported_early(tmp_path, monkeypatch):
+    (tmp_path / 'helper.py').write_text('X = 1\n')
+    (tmp_path / 'pkg').mkdir()
+    (tmp_path / 'pkg' / '__init__.py').write_text('')
+    monkeypatch.syspath_prepend(str(tmp_path))
+    here = str(tmp_path)
+    assert outside('json', here) and outside('sys', here) and outside('rospy', here)
+    assert outside('sensor_msgs.msg', here)
+    assert not outside('helper', here) and not outside('pkg.sub', here)
+    assert not outside('no_such_module_anywhere', here)
+    assert not outside('json', '/')                      # everything is below /
+
+
+APP = '''\
+"""An app: what it was started with, as a JSON line."""
+import json
+import os
+import sys
+print(json.dumps({'argv': sys.argv, 'name': __name__, 'file': __file__,
+                  'path0': sys.path[0], 'cwd': os.getcwd(),
+                  'master': os.environ.get('ROS_MASTER_URI')}))
+sys.exit(int(os.environ.get('APP_EXIT', '0')))
+'''
+
+
+def _app(tmp_path, text=APP):
+    d = tmp_path / 'apps'
+    d.mkdir(exist_ok=True)
+    f = d / 'app.py'
+    f.write_text(text)
+    return f
+
+
+def _listening():
+    s = socket.socket()
+    s.bind(('127.0.0.1', 0))
+    s.listen(8)
+    s.settimeout(0.2)
+    return s
+
+
+def _uri(s):
+    return 'http://127.0.0.1:%d' % s.getsockname()[1]
+
+
+def test_a_prestarted_app_runs_as_python_would_run_it_once_told_the_master(tmp_path):
+    f = _app(tmp_path)
+    env_master, given = _listening(), _listening()
+    given_uri = _uri(given)
+    env = dict(os.environ, ROS_MASTER_URI=_uri(env_master), PYTHONUNBUFFERED='1')
+    log = tmp_path / 'app.log'
+    p = procs.PreApp(str(f), ['a b', '_rate:=2', '__name:=app'], env, str(log),
+                     cwd=str(tmp_path))
+    try:
+        assert 'app.py' in ' '.join(procs.cmdline(p.p.pid))   # found by its script's name
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:                     # no master before go
+            with pytest.raises(socket.timeout):
+                env_master.accept()
+        assert p.alive() and log.read_text() == ''            # the script has not run
+        p.go(given_uri)
+        p.p.wait(30)
+    finally:
+        p.stop(grace=5.0)
+        env_master.close()
+        given.close()
+    assert p.p.returncode == 0, log.read_text()
+    seen = json.loads(log.read_text().strip().splitlines()[-1])
+    assert seen['argv'] == [str(f), 'a b', '_rate:=2', '__name:=app']
+    assert seen['name'] == '__main__' and seen['file'] == str(f)
+    assert seen['path0'] == str(tmp_path / 'apps') and seen['cwd'] == str(tmp_path)
+    assert seen['master'] == given_uri
+
+
+def test_the_scripts_libraries_are_imported_before_go_its_own_modules_after(tmp_path):
+    lib, marks = tmp_path / 'lib', tmp_path / 'marks'
+    lib.mkdir()
+    probe = 'import os\nwith open(%r, "a") as f:\n    f.write("%s\\n")\n'
+    (lib / 'probe_lib.py').write_text(probe % (str(marks), 'library'))
+    f = _app(tmp_path, 'import os\nimport probe_lib\nimport probe_own\nprint("ran")\n')
+    (tmp_path / 'apps' / 'probe_own.py').write_text(probe % (str(marks), 'own'))
+    env = dict(os.environ, PYTHONUNBUFFERED='1', PYTHONPATH=str(lib))
+    p = procs.PreApp(str(f), [], env, str(tmp_path / 'a.log'))
+    try:
+        deadline = time.monotonic() + 20
+        while not marks.exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.3)
+        assert marks.read_text() == 'library\n'         # before go: the library alone
+        p.go('http://127.0.0.1:1')
+        assert p.p.wait(30) == 0
+    finally:
+        p.stop(grace=5.0)
+    assert marks.read_text() == 'library\nown\n'       # each imported once
+    assert (tmp_path / 'a.log').read_text() == 'ran\n'
+
+
+def test_exit_codes_and_tracebacks_are_the_scripts(tmp_path):
+    f = _app(tmp_path)
+    env = dict(os.environ, PYTHONUNBUFFERED='1', APP_EXIT='3')
+    p = procs.PreApp(str(f), [], env, str(tmp_path / 'a.log'))
+    p.go('http://127.0.0.1:1')
+    assert p.p.wait(30) == 3
+    p.finish(time.monotonic())
+    (tmp_path / 'apps' / 'app.py').write_text('import os\nraise RuntimeError("no camera")\n')
+    p = procs.PreApp(str(f), [], env, str(tmp_path / 'b.log'))
+    p.go('http://127.0.0.1:1')
+    assert p.p.wait(30) == 1
+    p.finish(time.monotonic())
+    text = (tmp_path / 'b.log').read_text()
+    assert 'RuntimeError: no camera' in text and 'Traceback' in text
+    # a library that fails to import early is the script's own error, as without PreApp
+    (tmp_path / 'apps' / 'app.py').write_text('import no_such_lib_x\n')
+    p = procs.PreApp(str(f), [], env, str(tmp_path / 'c.log'))
+    p.go('http://127.0.0.1:1')
+    assert p.p.wait(30) == 1
+    p.finish(time.monotonic())
+    assert "No module named 'no_such_lib_x'" in (tmp_path / 'c.log').read_text()
+
+
+def test_without_go_the_script_never_runs(tmp_path):
+    f = _app(tmp_path)
+    env = dict(os.environ, PYTHONUNBUFFERED='1')
+    p = procs.PreApp(str(f), [], env, str(tmp_path / 'a.log'))
+    p.p.stdin.close()                   # the run ended before the world was ready
+    assert p.p.wait(30) == 0
+    p.finish(time.monotonic())
+    assert (tmp_path / 'a.log').read_text() == ''
+    q = procs.PreApp(str(f), [], env, str(tmp_path / 'b.log'))
+    q.stop(grace=5.0)                   # or it stops it
+    assert not q.alive() and 'argv' not in (tmp_path / 'b.log').read_text()
+    assert sys.executable == q.cmd[0]

@@ -11,8 +11,8 @@ top (the import statements before its first other statement, those found outside
 script's folder: libraries, not the app's own modules), then waits for one line on stdin:
 the URI of the run's master, once the world is reset and answering. It talks to no master
 before that. Then it runs the script as ``python3 SCRIPT ARGS`` would (``runpy``, as
-``__main__``, its folder first on ``sys.path``). An empty line or a closed stdin (the run
-ended first) ends it with exit code 0.
+``__main__``, its folder first on ``sys.path``). An empty line, a closed stdin or SIGINT
+before that (the run ended first) ends it quietly with exit code 0.
 
 A module that fails to import here is left for the script, which then fails as it would
 have failed on its own.
@@ -74,14 +74,17 @@ def main():
     sys.argv = sys.argv[1:]                   # as `python3 SCRIPT ARGS` has them
     here = os.path.dirname(os.path.abspath(script))
     sys.path[0] = here
-    for name in leading_imports(script):
-        if not outside(name, here):
-            continue
-        try:
-            importlib.import_module(name)
-        except Exception:  # noqa: BLE001 - the script meets it again and says so
-            pass
-    uri = sys.stdin.readline().strip()
+    try:
+        for name in leading_imports(script):
+            if not outside(name, here):
+                continue
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001 - the script meets it again and says so
+                pass
+        uri = sys.stdin.readline().strip()
+    except KeyboardInterrupt:
+        uri = ''                # the run stopped before its world was ready: no traceback
     if not uri:
         sys.exit(0)
     os.environ['ROS_MASTER_URI'] = uri

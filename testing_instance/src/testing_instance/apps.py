@@ -1,9 +1,10 @@
 """The scenario's apps: black boxes in processes of their own (``apps:`` of a scenario).
 
 ``prestart`` starts the Python ones with the run (procs.PreApp: their imports overlap the
-master's start and the world's loading, they talk to no master yet), ``launch`` lets them go
-on once the run's master answers and starts the others; ``await_ready`` waits until each is registered with the master and every
-subscription it has to a published topic is connected (so no app misses the first slice);
+master's start and the world's loading, they talk to no master yet), ``launch`` lets them
+go on once the run's master answers and starts the others; ``await_ready`` waits until
+each is registered with the master and every subscription it has to a published topic is
+connected (so no app misses the first slice);
 ``check`` tells an app that finished (exit code 0, said once) from one that crashed (the
 run's ERROR, with its log tail); ``wait_answered`` waits, after each slice, until every app
 has answered it (appwatch: evidence from /proc, not a quiet period)."""

@@ -12,10 +12,10 @@ import uuid
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'launch_env', 'stop_run', 'age', 'alive', 'cmdline',
-           'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree', 'read_chars',
-           'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail', 'receivers_busy',
-           'tcp_queues', 'thread_states', 'world_node']
+__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'launch_env', 'stop_run', 'age', 'alive',
+           'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
+           'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
+           'receivers_busy', 'tcp_queues', 'thread_states', 'world_node']
 
 
 def poll(cond, deadline, first=0.001, most=0.02):

@@ -171,6 +171,7 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
                         apps=SimpleNamespace(wait_answered=lambda wake: order.append('apps')),
                         stamp_held=lambda: order.append('stamped'), replayed_subs=None,
                         sync_wall=0.0, t=0.05)
+    r._answered = lambda w0: Runner._answered(r, w0)
     r.inbox.put(0.01, '/a', 'a1')
 
     def late():

@@ -60,6 +60,11 @@ __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS',
            'EXIT_ERROR']
 
 
+def _counts_line(missing):
+    """'topic (received of wanted), ...' of Inbox.wait_counts' missing topics."""
+    return ', '.join('%s (%d of %d)' % (t, got, n) for t, (got, n) in sorted(missing.items()))
+
+
 class Runner(Actions):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
@@ -319,10 +324,8 @@ class Runner(Actions):
         if missing:
             self.check_world()
             raise RunError('slice handshake: %.0f s of wall time after the step to sim time '
-                           '%.3f s, messages the world published have not arrived: %s' % (
-                               HANDSHAKE_WATCHDOG, self.t, ', '.join(
-                                   '%s (%d of %d)' % (t, got, n)
-                                   for t, (got, n) in sorted(missing.items()))),
+                           '%.3f s, messages the world published have not arrived: %s'
+                           % (HANDSHAKE_WATCHDOG, self.t, _counts_line(missing)),
                            self.world_log())
         # topics of the world it does not count (outside its counted publishers)
         intake.uncounted.update(t for t in intake.world_topics if t not in want and
@@ -331,6 +334,11 @@ class Runner(Actions):
         self._counted_once = True
         if intake.uncounted:
             self.inbox.settle(0.02)
+        self._answered(w0)
+
+    def _answered(self, w0):
+        """The end of a slice handshake begun at wall time ``w0``, live or replayed: the
+        apps have answered (appwatch), the held unstamped messages are timed."""
         self.apps.wait_answered(self.inbox.wake)
         self.stamp_held()
         self.sync_wall += time.monotonic() - w0
@@ -351,13 +359,9 @@ class Runner(Actions):
         missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG, world=False)
         if missing:
             raise RunError('slice handshake: %.0f s of wall time after the replay reached sim '
-                           'time %.3f s, messages it published have not come back: %s' % (
-                               HANDSHAKE_WATCHDOG, self.t, ', '.join(
-                                   '%s (%d of %d)' % (t, got, n)
-                                   for t, (got, n) in sorted(missing.items()))))
-        self.apps.wait_answered(self.inbox.wake)
-        self.stamp_held()
-        self.sync_wall += time.monotonic() - w0
+                           'time %.3f s, messages it published have not come back: %s'
+                           % (HANDSHAKE_WATCHDOG, self.t, _counts_line(missing)))
+        self._answered(w0)
 
     def _own_pending(self, q):
         """Why the runner (or the world) still holds app messages not yet delivered, or

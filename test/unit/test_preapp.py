@@ -3,6 +3,7 @@ procs.PreApp): it imports the libraries its script imports at its top, talks to 
 until it is told the run's, then runs the script as ``python3 SCRIPT ARGS`` would."""
 import json
 import os
+import signal
 import socket
 import sys
 import time
@@ -156,10 +157,28 @@ def test_without_go_the_script_never_runs(tmp_path):
     assert p.p.wait(30) == 0
     p.finish(time.monotonic())
     assert (tmp_path / 'a.log').read_text() == ''
-    q = procs.PreApp(str(f), [], env, str(tmp_path / 'b.log'))
-    time.sleep(0.5)                     # importing, or waiting on its stdin
-    q.stop(grace=5.0)                   # or the run stops it (SIGINT): quietly
-    assert q.p.returncode == 0 and (tmp_path / 'b.log').read_text() == ''
+    # or the run stops it (SIGINT), once it imports (its libraries) or waits: quietly, and
+    # also when it came with SIGINT ignored (a runner in the background of a shell: CI)
+    lib, marks = tmp_path / 'lib', tmp_path / 'marks'
+    lib.mkdir()
+    (lib / 'probe_lib.py').write_text('open(%r, "a").write("x")\n' % str(marks))
+    f.write_text('import probe_lib\nprint("ran")\n')
+    old = signal.getsignal(signal.SIGINT)
+    try:
+        for ignored in (False, True):
+            # what the children inherit
+            signal.signal(signal.SIGINT, signal.SIG_IGN if ignored else old)
+            if marks.exists():
+                marks.unlink()
+            q = procs.PreApp(str(f), [], dict(env, PYTHONPATH=str(lib)),
+                             str(tmp_path / 'b.log'))
+            deadline = time.monotonic() + 30
+            while not marks.exists() and time.monotonic() < deadline:
+                time.sleep(0.02)
+            q.stop(grace=10.0)
+            assert q.p.returncode == 0 and (tmp_path / 'b.log').read_text() == '', ignored
+    finally:
+        signal.signal(signal.SIGINT, old)
     q = procs.PreApp(str(f), [], env, str(tmp_path / 'c.log'))
     q.stop(grace=5.0)                   # at once
     assert not q.alive()

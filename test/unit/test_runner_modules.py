@@ -261,6 +261,7 @@ def test_a_launch_imports_roslaunch_first_and_talks_only_to_the_master_it_is_giv
     """procs.Launch: roslaunch's Python start runs while the run's master starts, but it
     talks to no master until go(uri): not to the one its environment names (another job's
     on a port taken first), then to the given one; without go it ends with the run."""
+    import signal
     import socket
     import time
     from testing_instance import procs
@@ -298,8 +299,17 @@ def test_a_launch_imports_roslaunch_first_and_talks_only_to_the_master_it_is_giv
         env_master.close()
         given.close()
     assert not p.alive()
-    # without go: it ends when the run stops it
-    q = procs.Launch([str(launch_file)], procs.launch_env(env, str(tmp_path)),
-                     str(tmp_path / 'w2.log'))
-    q.stop(grace=5.0)
-    assert not q.alive()
+    # without go: it ends quietly when the run stops it (SIGINT), also when it came with
+    # SIGINT ignored (a runner in the background of a non-interactive shell: CI)
+    old = signal.getsignal(signal.SIGINT)
+    try:
+        for ignored in (False, True):
+            signal.signal(signal.SIGINT, signal.SIG_IGN if ignored else old)
+            q = procs.Launch([str(launch_file)], procs.launch_env(env, str(tmp_path)),
+                             str(tmp_path / 'w2.log'))
+            time.sleep(1.0)
+            q.stop(grace=10.0)
+            assert q.p.returncode == 0, (ignored, open(tmp_path / 'w2.log').read())
+    finally:
+        signal.signal(signal.SIGINT, old)
+

@@ -20,6 +20,7 @@ have failed on its own.
 import ast
 import importlib.util
 import os
+import signal
 import sys
 
 __all__ = ['leading_imports', 'outside', 'main']
@@ -74,6 +75,10 @@ def main():
     sys.argv = sys.argv[1:]                   # as `python3 SCRIPT ARGS` has them
     here = os.path.dirname(os.path.abspath(script))
     sys.path[0] = here
+    # SIGINT stops it while it waits, even when it came in ignored (a runner started in
+    # the background of a non-interactive shell: CI); the script gets what it came with
+    inherited = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         for name in leading_imports(script):
             if not outside(name, here):
@@ -87,6 +92,7 @@ def main():
         uri = ''                # the run stopped before its world was ready: no traceback
     if not uri:
         sys.exit(0)
+    signal.signal(signal.SIGINT, inherited)
     os.environ['ROS_MASTER_URI'] = uri
     import runpy
     runpy.run_path(script, run_name='__main__')

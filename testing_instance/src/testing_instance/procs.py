@@ -202,11 +202,17 @@ EMPTY_ROSCORE = """<launch>
 
 #: the child of Launch: roslaunch's imports first, then its master's URI from stdin
 PRELAUNCH = """\
-import os, sys
-import roslaunch
-uri = sys.stdin.readline().strip()
+import os, signal, sys
+inherited = signal.getsignal(signal.SIGINT)
+signal.signal(signal.SIGINT, signal.default_int_handler)   # stopped while it waits
+try:
+    import roslaunch
+    uri = sys.stdin.readline().strip()
+except KeyboardInterrupt:
+    uri = ''
 if not uri:
     sys.exit(0)
+signal.signal(signal.SIGINT, inherited)
 os.environ['ROS_MASTER_URI'] = uri
 sys.argv[0] = 'roslaunch'
 roslaunch.main()

@@ -310,7 +310,7 @@ class CameraPlugin(Plugin):
         if want_depth:
             if not pubs or pubs['points'].get_num_connections() > 0:
                 cloud = self.camera.cloud_msg(rgb, depth, stamp, self.frame_id, self.cutoff)
-            if 'depth' in pubs and pubs['depth'].get_num_connections() > 0:
+            if self._subscribed('depth'):
                 depth_img = self.camera.depth_msg(depth, stamp, self.frame_id)
         self.frames += 1
         self.last_image, self.last_info, self.last_cloud = img, info, cloud

@@ -23,7 +23,7 @@ import os
 import signal
 import sys
 
-__all__ = ['leading_imports', 'outside', 'main']
+__all__ = ['leading_imports', 'outside', 'until_told', 'main']
 
 
 def leading_imports(path):
@@ -62,31 +62,24 @@ def outside(name, here):
         return False
     if spec is None:
         return False
-    where = [spec.origin] if spec.origin not in (None, 'built-in', 'frozen') else []
-    where += list(spec.submodule_search_locations or [])
     if spec.origin in ('built-in', 'frozen'):
         return True
+    where = ([spec.origin] if spec.origin else []) + list(spec.submodule_search_locations or [])
     root = os.path.join(os.path.abspath(here), '')
     return bool(where) and not any(os.path.abspath(w).startswith(root) for w in where)
 
 
-def main():
-    script = sys.argv[1]
-    sys.argv = sys.argv[1:]                   # as `python3 SCRIPT ARGS` has them
-    here = os.path.dirname(os.path.abspath(script))
-    sys.path[0] = here
-    # SIGINT stops it while it waits, even when it came in ignored (a runner started in
-    # the background of a non-interactive shell: CI); the script gets what it came with
+def until_told(prepare):
+    """Run ``prepare()`` (the imports), then wait for one line on stdin, the URI of the
+    run's master, talking to no master meanwhile; returns it, set as ROS_MASTER_URI. SIGINT
+    ends the process quietly (exit code 0) until then, even when it came in ignored (a
+    runner started in the background of a non-interactive shell: CI); afterwards the
+    process has the disposition it came with. An empty line or a closed stdin (the run
+    ended first) ends it the same way. procs.Launch's roslaunch waits here too."""
     inherited = signal.getsignal(signal.SIGINT)
     signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        for name in leading_imports(script):
-            if not outside(name, here):
-                continue
-            try:
-                importlib.import_module(name)
-            except Exception:  # noqa: BLE001 - the script meets it again and says so
-                pass
+        prepare()
         uri = sys.stdin.readline().strip()
     except KeyboardInterrupt:
         uri = ''                # the run stopped before its world was ready: no traceback
@@ -94,6 +87,24 @@ def main():
         sys.exit(0)
     signal.signal(signal.SIGINT, inherited)
     os.environ['ROS_MASTER_URI'] = uri
+    return uri
+
+
+def _import_libraries(script, here):
+    for name in leading_imports(script):
+        if outside(name, here):
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001 - the script meets it again and says so
+                pass
+
+
+def main():
+    script = sys.argv[1]
+    sys.argv = sys.argv[1:]                   # as `python3 SCRIPT ARGS` has them
+    here = os.path.dirname(os.path.abspath(script))
+    sys.path[0] = here
+    until_told(lambda: _import_libraries(script, here))
     import runpy
     runpy.run_path(script, run_name='__main__')
 

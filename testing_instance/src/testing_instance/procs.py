@@ -201,22 +201,16 @@ EMPTY_ROSCORE = """<launch>
 
 
 #: the child of Launch: roslaunch's imports first, then its master's URI from stdin
+#: (testing_instance.preapp.until_told, as a prestarted app waits)
 PRELAUNCH = """\
-import os, signal, sys
-inherited = signal.getsignal(signal.SIGINT)
-signal.signal(signal.SIGINT, signal.default_int_handler)   # stopped while it waits
-try:
-    import roslaunch
-    uri = sys.stdin.readline().strip()
-except KeyboardInterrupt:
-    uri = ''
-if not uri:
-    sys.exit(0)
-signal.signal(signal.SIGINT, inherited)
-os.environ['ROS_MASTER_URI'] = uri
+import sys
+sys.path.insert(0, %r)          # testing_instance/src: this package, nothing else
+from testing_instance.preapp import until_told
+until_told(lambda: __import__('roslaunch'))
+import roslaunch
 sys.argv[0] = 'roslaunch'
 roslaunch.main()
-"""
+""" % os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 class _Told(Proc):

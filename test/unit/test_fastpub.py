@@ -371,3 +371,52 @@ def test_local_delivery_looks_its_subscriber_up_once_per_subscription(monkeypatc
         assert d.subscriber() is second and len(lookups) == 4    # kept again
     finally:
         d.close()
+
+
+def test_hold_keeps_messages_for_others_until_the_next_release(monkeypatch):
+    """The pipelined lockstep: while held, messages for other nodes wait (not counted as
+    handed, not unsent: step_world does not wait for them), in order, with the sim time they
+    were published at; the stepping node (``keep``) and this node get theirs at once.
+    release sends them; release(stop) ends the hold; release(drop) forgets them."""
+    import socket
+    now = [2.0]
+    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
+    monkeypatch.setattr(fastpub, '_own_id', lambda: '/me')
+    pairs = [socket.socketpair() for _ in range(3)]
+    ts = [SocketTransport(a) for a, _b in pairs]
+    ts[1].endpoint_id = '/scenario_runner'
+    ts[2].endpoint_id = '/me'
+    cs = [fastpub.NoYieldConnection(t, 10) for t in ts]
+    cs[0].unstamped, cs[0].times = True, []
+    try:
+        fastpub.hold(keep=('/scenario_runner',))
+        assert fastpub.holding()
+        for i in range(3):
+            now[0] = 2.0 + 0.01 * i
+            for c in cs:
+                assert c.write_data(b'm%d' % i) is True
+        assert cs[0].handed == 0 and cs[0].unsent() == 0 and cs[0].times == []
+        assert fastpub.wait_sent(stall=1.0) is True          # held ones are not waited for
+        for c, (_a, b) in zip(cs[1:], pairs[1:]):             # kept: at once
+            assert c.handed == 3 and _read(b, 6) == b'm0m1m2'
+        pairs[0][1].setblocking(False)
+        with pytest.raises(BlockingIOError):
+            pairs[0][1].recv(10)
+        now[0] = 3.0
+        fastpub.release()                                     # the next step begins
+        assert fastpub.holding()
+        assert cs[0].handed == 3 and _read(pairs[0][1], 6) == b'm0m1m2'
+        assert [round(x, 3) for x in cs[0].times] == [2.0, 2.01, 2.02]
+        cs[0].write_data(b'x')                                # held again ...
+        fastpub.release(drop=True)                            # ... and forgotten
+        fastpub.release(stop=True)
+        assert not fastpub.holding() and cs[0].handed == 3
+        cs[0].write_data(b'y')                                # no hold: sent at once
+        assert cs[0].handed == 4 and _read(pairs[0][1], 1) == b'y'
+    finally:
+        fastpub.release(stop=True)
+        for c, t in zip(cs, ts):
+            _close(c, t)
+        for a, b in pairs:
+            a.close()
+            b.close()

@@ -70,3 +70,22 @@ def test_unstamped_messages_are_held_until_the_handshake_times_them():
         [(1.05, '/app/out', 'x'), (1.031, '/led', 'y')]
     assert [(t, m) for t, _s, _tp, m in box.take()] == [(1.031, 'y'), (1.05, 'x')]
     assert box.stamp_held(lambda topic, tag: 0) == [] and box.take() == []
+
+
+def test_a_pipelined_replay_times_the_apps_answers_one_slice_later():
+    """later(topic, tag): those messages wait for the next stamp_held, once; the world's
+    (tagged) are timed at once; order of arrival is kept."""
+    box = Inbox()
+    apps = lambda topic, tag: tag is None      # noqa: E731
+    box.hold('/app/out', 'x1')
+    box.hold('/led', 'w1', from_world=True, tag=0.02)
+    assert box.stamp_held(lambda topic, tag: 0.05 if tag is None else tag, apps) == \
+        [(0.02, '/led', 'w1')]
+    box.hold('/app/out', 'x2')
+    assert box.stamp_held(lambda topic, tag: 0.10 if tag is None else tag, apps) == \
+        [(0.10, '/app/out', 'x1')]
+    box.hold('/app/out', 'x3')
+    # the last slice: everything
+    assert box.stamp_held(lambda topic, tag: 0.15) == \
+        [(0.15, '/app/out', 'x2'), (0.15, '/app/out', 'x3')]
+    assert box.counts == {'/app/out': 3, '/led': 1}

@@ -49,6 +49,20 @@ def test_invalid_file_is_an_error_before_anything_starts(tmp_path):
     assert (tmp_path / 'j.xml').exists()
 
 
+def test_pipeline_must_be_true_or_false(tmp_path):
+    from testing_instance.scenario import load
+    f = tmp_path / 'p.yaml'
+    f.write_text('duration: 1\npipeline: true\n')
+    assert load(str(f)).pipeline is True
+    f.write_text('duration: 1\n')
+    assert load(str(f)).pipeline is False
+    f.write_text('duration: 1\npipeline: sometimes\n')
+    lines = []
+    r = run_file(str(f), out=lines.append)
+    assert r.exit_code == EXIT_ERROR
+    assert "p.yaml:2: scenario.pipeline: expected true or false, got 'sometimes'" in lines[1]
+
+
 def test_shards_deal_the_sorted_files_round_robin():
     files = ['e', 'a', 'c', 'b', 'd']
     assert cli._shard(files, '0/2') == ['a', 'c', 'e']

@@ -43,7 +43,7 @@ def main():
             scr.publish(array_to_image(screen(text), 'rgb8', stamp=msg.header.stamp))
 
     rospy.Subscriber(rospy.get_param('~image', '/mobile_device/image_raw'), Image, on_image,
-                     queue_size=1, buff_size=1 << 24)
+                     queue_size=10, buff_size=1 << 24)
     rospy.spin()
 
 

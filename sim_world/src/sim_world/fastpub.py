@@ -29,8 +29,8 @@ import threading
 import time
 import weakref
 
-__all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'no_yield', 'publisher',
-           'set_sim_clock', 'take_times', 'unsent', 'wait_sent']
+__all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'hold', 'holding', 'no_yield',
+           'publisher', 'release', 'set_sim_clock', 'take_times', 'unsent', 'wait_sent']
 
 log = logging.getLogger('sim_world.fastpub')
 
@@ -74,6 +74,7 @@ class NoYieldConnection(_Queued):
     last_write = 0.0      # ... and of its last write to the socket
     _writing = False      # the writer thread is writing what it took from the queue
     _partial = False      # the queue's head is the rest of a message begun directly
+    _held = None          # [(data, sim time)] held back while the world steps (hold)
 
     def __init__(self, connection, queue_size):
         super(NoYieldConnection, self).__init__(connection, queue_size)
@@ -100,6 +101,27 @@ class NoYieldConnection(_Queued):
             return max(0, self.handed - self.dropped - self.sent)
 
     def write_data(self, data):
+        held = _hold[0]
+        if held is not None and getattr(self._connection, 'endpoint_id', None) not in held:
+            # the pipelined lockstep: sent when the next step begins (release)
+            t = _sim_clock[0]() if _sim_clock[0] is not None else None
+            with self._lock:
+                if self._held is None:
+                    self._held = []
+                self._held.append((data, t))
+            return True
+        return self._hand(data, None)
+
+    def release(self, drop=False):
+        """Hand over (or with ``drop`` forget) the messages held back (:func:`hold`), in
+        the order they were published, timed at the sim time they were published at."""
+        with self._lock:
+            held, self._held = self._held, None
+        if held and not drop:
+            for data, t in held:
+                self._hand(data, t)
+
+    def _hand(self, data, t):
         with self._lock:
             if self._error:
                 error, self._error = self._error, None
@@ -109,7 +131,7 @@ class NoYieldConnection(_Queued):
             self.handed += 1
             times = self.times
             if times is not None and _sim_clock[0] is not None:
-                times.append(_sim_clock[0]())
+                times.append(_sim_clock[0]() if t is None else t)
                 if len(times) > MAX_TIMES:
                     del times[:len(times) - MAX_TIMES]
             sent_now = False
@@ -185,6 +207,7 @@ class NoYieldConnection(_Queued):
 
 
 _DIRECT = [True]                 # tests turn the direct send off to compare
+_hold = [None]                   # hold: the caller ids whose connections are not held
 _MSG_DONTWAIT = getattr(__import__('socket'), 'MSG_DONTWAIT', 0)
 
 
@@ -347,6 +370,30 @@ def unsent():
     """Messages this process's publishers handed to remote subscribers' connections and
     have not written to their sockets yet."""
     return sum(c.unsent() for c in list(_connections))
+
+
+def hold(keep=()):
+    """The pipelined lockstep (StepWorld's ``pipeline``): from now on every message for a
+    remote subscriber is held back until :func:`release`, except for the nodes named in
+    ``keep`` (caller ids: the testing instance that steps the world) and this node itself.
+    So an app, which works on what it got while the world steps the next slice, gets
+    nothing in the middle of a step: what it sees (the sensors' messages, /clock) is the
+    world at the end of a slice, whatever its speed."""
+    _hold[0] = frozenset(keep) | {_own_id()}
+
+
+def release(drop=False, stop=False):
+    """Hand every held message to its connection (with ``drop``: forget them, for a world
+    started over); with ``stop`` hold nothing from now on. A message published while this
+    runs waits for the next release if the hold goes on."""
+    if stop:
+        _hold[0] = None
+    for c in list(_connections):
+        c.release(drop)
+
+
+def holding():
+    return _hold[0] is not None
 
 
 def wait_sent(stall=0.2):

@@ -24,6 +24,7 @@ import time
 import rospy
 import rospy.core
 
+from . import fastpub
 from .gazebo_api import GazeboRosApi, run_loop
 from .model import ModelError
 ENGINES = ("ode", "bullet")
@@ -220,6 +221,8 @@ class WorldHost(object):
                 plan = self._plan(req)
             except ValueError as e:
                 return self._refused(ReloadWorldResponse, str(e))
+            # a pipelined scenario's last slice, held for its apps, is the old world's
+            fastpub.release(drop=True, stop=True)
             done, box = threading.Event(), {}
             self._pending = (plan, done, box)
             self.api.reset_anchor.set()           # wakes a paused loop at once

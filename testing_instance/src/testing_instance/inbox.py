@@ -24,6 +24,7 @@ class Inbox(object):
         self._cv = threading.Condition()
         self._buffer = []
         self._held = []
+        self._waited = set()              # seqs of held messages kept for one more call
         self._seq = 0
         self.counts = {}                  # topic -> messages received so far
         self.from_world = {}              # topic -> of those, from the world node
@@ -50,11 +51,20 @@ class Inbox(object):
             self.last_wall = time.monotonic()
             self._cv.notify_all()
 
-    def stamp_held(self, time_of):
+    def stamp_held(self, time_of, later=None):
         """Time every held message, in arrival order, by time_of(topic, tag); returns them
-        as [(t, topic, msg)]."""
+        as [(t, topic, msg)]. With ``later(topic, tag)`` (a replay of a pipelined run, for
+        the apps' answers) a message it is true for stays held until the next call, once:
+        live, the app got the slice's messages as the next slice began, and its answer
+        was timed at that one's end."""
         with self._cv:
             held, self._held = self._held, []
+            if later is not None:
+                wait = [h for h in held if h[0] not in self._waited and later(h[1], h[3])]
+                self._waited = {h[0] for h in wait}
+                if wait:
+                    held = [h for h in held if h[0] not in self._waited]
+                    self._held = wait + self._held
         out = [(time_of(topic, tag), seq, topic, msg) for seq, topic, msg, tag in held]
         with self._cv:
             self._buffer.extend(out)

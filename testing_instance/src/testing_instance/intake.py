@@ -239,12 +239,14 @@ class Intake(object):
         """An unstamped input a replay publishes at its recorded sim time ``t``."""
         self.input_times.setdefault(topic, collections.deque()).append(t)
 
-    def stamp_held(self, t_end):
+    def stamp_held(self, t_end, apps_later=False):
         """Time the held messages at the end of the slice handshake of the slice that ended
-        at sim time ``t_end``, and record them."""
+        at sim time ``t_end``, and record them. ``apps_later`` (a replay of a pipelined
+        run): the apps' messages wait for the next slice's end, as live."""
         def time_of(topic, tag):
             return self._time_held(topic, tag, t_end)
-        for t, topic, msg in self.inbox.stamp_held(time_of):
+        later = (lambda topic, tag: tag is None) if apps_later else None
+        for t, topic, msg in self.inbox.stamp_held(time_of, later):
             if self.debug:
                 self.say('  debug: %s at %.3f' % (topic, t))
             if self.recorder.active:

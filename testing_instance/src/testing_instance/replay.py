@@ -185,5 +185,6 @@ def replay_run(r):
         r.drain()
         if r.t >= end - 1e-9:
             break
+    r.stamp_held(last=True)                # a pipelined run's answers to the last slice
     r.drain()
     r.missing_topics_are_errors('is neither in the recording nor published by an app')

@@ -155,9 +155,10 @@ class Runner(Actions):
         self.apps.launch(self._own_pending)
         self.apps.await_ready()
 
-    def stamp_held(self):
-        """End of a slice handshake: time the held unstamped messages (Intake)."""
-        self.intake.stamp_held(self.t)
+    def stamp_held(self, last=False):
+        """End of a slice handshake: time the held unstamped messages (Intake). A replay of
+        a pipelined run times the apps' answers at the next slice's end (but the last)."""
+        self.intake.stamp_held(self.t, bool(self.replay) and self.sc.pipeline and not last)
 
     # -- output ----------------------------------------------------------------------------
     def say(self, text):
@@ -546,8 +547,9 @@ class Runner(Actions):
     def _step_to(self, t_next):
         return WorldClock(self._step, self._world_stopped).step_to(t_next)
 
-    def _step(self, until):
-        r = self.step_srv(until=until, subscriber=self.rospy.get_name())
+    def _step(self, until, pipeline=None):
+        r = self.step_srv(until=until, subscriber=self.rospy.get_name(),
+                          pipeline=self.sc.pipeline if pipeline is None else pipeline)
         if not r.success:
             raise RunError('the world refused the step to sim time %.3f s: %s'
                            % (until, r.status_message), self.world_log())
@@ -583,7 +585,8 @@ class Runner(Actions):
             # wait for the slice's messages when a topic condition waits for them, and at
             # least every settle_every s of sim time (so apps keep up); short motion slices
             # in between only step (sim-time rule: the same slices settle in every run)
-            if self.conditions.wait_for_messages() or \
+            # (pipelined: every step, as the next one sends the apps what this one made)
+            if self.sc.pipeline or self.conditions.wait_for_messages() or \
                     self.t - last_settle >= settle_every - 1e-9:
                 self._sync()
                 last_settle = self.t
@@ -596,6 +599,11 @@ class Runner(Actions):
             self._check_conditions()
         # the last slice's messages (the handshake: exactly those the world handed over)
         self._sync()
+        if self.sc.pipeline:
+            # the apps have not had the last slice yet: it is sent now, and what they answer
+            # is timed at the end
+            self._step(self.t, pipeline=False)
+            self._sync()
         self.drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:

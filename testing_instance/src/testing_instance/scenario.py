@@ -83,8 +83,8 @@ CONDITION_KEYS = dict(PREDICATE_KEYS, topic='str', field='str', reach='dict',
 TOP = {
     'name': 'str', 'description': 'str', 'world': 'dict', 'seed': 'int>=0',
     'real_time_factor': 'num>=0', 'duration': 'num>0', 'timeout': 'num>0',
-    'slice': 'num>0', 'apps': 'list', 'timeline': 'list', 'expect': 'list',
-    'record': 'list', 'phones': 'list',
+    'slice': 'num>0', 'pipeline': 'bool', 'apps': 'list', 'timeline': 'list',
+    'expect': 'list', 'record': 'list', 'phones': 'list',
 }
 WORLD = {'launch': 'str', 'attach': 'bool', 'physics': ('ode', 'bullet'), 'args': 'dict',
          'max_step_size': 'num>0'}
@@ -111,6 +111,7 @@ class Scenario(object):
         self.duration = float(data['duration'])
         self.timeout = float(data.get('timeout', 300.0))
         self.slice = float(data.get('slice', 0.05))
+        self.pipeline = bool(data.get('pipeline', False))
         self.apps = list(data.get('apps') or [])
         self.phones = list(data.get('phones') or [{'ns': 'mobile_device'}])
         self.timeline = list(data.get('timeline') or [])

@@ -1,0 +1,58 @@
+"""The pipelined lockstep (`pipeline: true`, StepWorld's pipeline), with a real roscore,
+world and app: the QR app decides on one slice's frames while the world steps the next.
+
+- what the app answers lands exactly one slice later than in the plain lockstep, and the
+  world's own messages are the same;
+- two embedded runs give identical recordings message by message, and the sim_world node
+  the same world messages and app answers as the embedded world;
+- replaying a pipelined recording times the app's answers as the live run did.
+"""
+import os
+
+import pytest
+
+from fixtures.scenario_cli import run_scenario
+from test_scenarios import EX, bag_messages, verdicts
+
+pytestmark = pytest.mark.rostest
+
+WORLD = ['/mobile_device/image_raw', '/mobile_device/camera_info']
+
+
+def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
+    text = open(os.path.join(EX, 'qr_code.yaml')).read()
+    text = text.replace('script: qr_app.py', 'script: %s' % os.path.join(EX, 'qr_app.py'))
+    text = text.replace('record: [', 'record: [/mobile_device/camera_info, ')
+    lock, pipe = tmp_path / 'lock.yaml', tmp_path / 'pipe.yaml'
+    lock.write_text(text)
+    pipe.write_text(text.replace('\nduration: ', '\npipeline: true\nduration: ', 1))
+    runs = {'lock': (lock, '--embedded'), 'pipe1': (pipe, '--embedded'),
+            'pipe2': (pipe, '--embedded'), 'node': (pipe, '--world-node')}
+    bags = {}
+    for name, (f, mode) in runs.items():
+        bag = tmp_path / (name + '.bag')
+        rc, out = run_scenario(f, mode, '--record', bag, timeout=300)
+        assert rc == 0, out
+        assert set(verdicts(out).values()) == {'PASS'}, out
+        bags[name] = bag_messages(bag)
+    # the plain lockstep times the answer to the first frame's slice, 0.05 s; pipelined the
+    # app gets that frame when the next slice begins, and its answer lands at that one's end
+    result = '/qr_app/result'
+    assert [t for t, _b in bags['lock'][result]] == [50000000]
+    assert [t for t, _b in bags['pipe1'][result]] == [100000000]
+    assert bags['pipe1'][result][0][1] == bags['lock'][result][0][1]
+    for topic in WORLD:               # the world's own messages do not change
+        assert len(bags['pipe1'][topic]) == 21, topic
+        assert bags['pipe1'][topic] == bags['lock'][topic], topic
+    a, b = bags['pipe1'], bags['pipe2']
+    assert sorted(a) == sorted(b)
+    for topic in a:
+        if topic != '/scenario/meta':
+            assert a[topic] == b[topic], '%s differs between two pipelined runs' % topic
+    for topic in WORLD + [result]:
+        assert bags['node'][topic] == a[topic], '%s differs with the sim_world node' % topic
+    rep = tmp_path / 'replay.bag'
+    rc, out = run_scenario(pipe, '--replay', tmp_path / 'pipe1.bag', '--record', rep,
+                           timeout=300)
+    assert rc == 0 and 'PASS app_decodes' in out, out
+    assert bag_messages(rep, [result])[result] == a[result]

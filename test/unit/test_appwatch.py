@@ -226,3 +226,24 @@ def test_receivers_busy_names_a_receive_thread_not_waiting_for_bytes():
         a.close()
         b.close()
     assert procs.receivers_busy() == []
+
+
+def test_the_process_tree_is_scanned_again_only_after_a_process_was_made(monkeypatch, spawn):
+    scans = []
+    real = procs.children_map
+    monkeypatch.setattr(procs, 'children_map', lambda: scans.append(1) or real())
+    tree = procs.ProcessTree()
+    marks = iter([100, 100, 100, 101])
+    monkeypatch.setattr(procs, 'last_pid', lambda: next(marks))
+    kids = tree.children()
+    assert tree.children() is kids and tree.children() is kids and len(scans) == 1
+    tree.children()                                  # an id was handed out: scanned again
+    assert len(scans) == 2
+    monkeypatch.undo()
+    # the real mark moves when a process is made, and the new one is in the next map
+    tree = procs.ProcessTree()
+    tree.children()
+    before = procs.last_pid()
+    p = spawn('import time; time.sleep(60)')
+    assert procs.last_pid() != before
+    assert p.p.pid in tree.children().get(os.getpid(), [])

@@ -70,6 +70,7 @@ class AppWatch(object):
         self.survived = set()  # apps that outlived a traceback: not waited for on them again
         self.log_pos = {}      # name -> bytes of its log already read
         self.log_tail = {}     # name -> its last lines read
+        self.tree = procs.ProcessTree()
 
     def _traceback_seen(self, name, p):
         """Did the app's log (its stdout and stderr) get an uncaught exception's traceback
@@ -101,7 +102,7 @@ class AppWatch(object):
         """[(name, why)] of the apps still working (not those given up on); raises
         AppHung for any app, given up on or not."""
         out = []
-        kids = procs.children_map()
+        kids = self.tree.children()
         now = self.clock()
         for name, p in self.apps:
             if not p.alive():

@@ -387,6 +387,34 @@ def children_map():
     return kids
 
 
+def last_pid():
+    """The last process or thread id the kernel handed out (the last field of
+    /proc/loadavg), or None: while it stays the same, no process was created."""
+    try:
+        with open('/proc/loadavg', 'rb') as f:
+            return int(f.read().split()[-1])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+class ProcessTree(object):
+    """children_map(), scanned again only once a process (or thread) was created since
+    the last scan (last_pid). A scan reads every /proc/PID/stat of the machine: 1.1 ms
+    with 65 processes, and the app watch looks every 2 ms while an app works. A process
+    that exited stays in the map: its /proc files are gone, and its pid is not reused
+    without a new id being handed out."""
+
+    def __init__(self):
+        self.mark = None
+        self.kids = None
+
+    def children(self):
+        mark = last_pid()             # before the scan: one made meanwhile rescans next time
+        if self.kids is None or mark is None or mark != self.mark:
+            self.kids, self.mark = children_map(), mark
+        return self.kids
+
+
 def descendants(pid, kids=None):
     """pid and every process below it."""
     kids = children_map() if kids is None else kids

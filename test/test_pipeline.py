@@ -3,11 +3,15 @@ world and app: the QR app decides on one slice's frames while the world steps th
 
 - what the app answers lands exactly one slice later than in the plain lockstep, and the
   world's own messages are the same;
-- two embedded runs give identical recordings message by message, and the sim_world node
+- two embedded runs, one of them while two CPU hogs run (stress-ng --cpu 2), give
+  identical recordings message by message, and the sim_world node
   the same world messages and app answers as the embedded world;
 - replaying a pipelined recording times the app's answers as the live run did.
 """
 import os
+import shutil
+import subprocess
+import time
 
 import pytest
 
@@ -31,7 +35,18 @@ def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
     bags = {}
     for name, (f, mode) in runs.items():
         bag = tmp_path / (name + '.bag')
-        rc, out = run_scenario(f, mode, '--record', bag, timeout=300)
+        hogs = None
+        if name == 'pipe2':        # while two CPU hogs compete for the cores
+            hogs = subprocess.Popen([shutil.which('stress-ng'), '--cpu', '2', '--timeout',
+                                     '600'], stdout=subprocess.DEVNULL,
+                                    stderr=subprocess.DEVNULL)
+            time.sleep(1.0)
+        try:
+            rc, out = run_scenario(f, mode, '--record', bag, timeout=300)
+        finally:
+            if hogs is not None:
+                hogs.terminate()
+                hogs.wait()
         assert rc == 0, out
         assert set(verdicts(out).values()) == {'PASS'}, out
         bags[name] = bag_messages(bag)

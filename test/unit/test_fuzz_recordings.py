@@ -185,6 +185,7 @@ def test_a_bag_cut_short_replays_its_complete_chunks_with_one_warning(tmp_path):
     ('{"inputs": [], "t0": -1}', 't0 -1'),
     ('{"inputs": [], "duration": 1e300}', 'not a time in seconds'),
     ('{"inputs": [], "duration": 0}', 'not a time in seconds'),
+    ('{"inputs": [], "pipeline": "yes"}', "pipeline 'yes', not true or false"),
     ('{"inputs": [', 'not a replayable recording'),
 ])
 def test_a_damaged_meta_message_is_one_named_error(tmp_path, meta, why):

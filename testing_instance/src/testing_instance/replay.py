@@ -48,6 +48,9 @@ def _check_meta(path, meta):
         if not t.startswith('/') or not rosgraph.names.is_legal_name(t):
             raise ValueError('its %s message lists the input %r, which is not a ROS topic '
                              'name' % (META_TOPIC, t))
+    if not isinstance(meta.get('pipeline', False), bool):
+        raise ValueError('its %s message has pipeline %r, not true or false'
+                         % (META_TOPIC, meta['pipeline']))
     for k, lo in (('t0', 0.0), ('duration', None)):
         v = meta.get(k)
         if v is None:
@@ -142,6 +145,9 @@ def replay_run(r):
         r.say('WARNING ' + rec.warning)
     meta = rec.meta
     inputs = set(meta['inputs'])
+    # the apps' answers are timed as the recording's run timed them (older recordings do
+    # not say: the scenario file's key)
+    r.sc.pipeline = bool(meta.get('pipeline', r.sc.pipeline))
     r.start_master(time.monotonic() + 60.0)    # its own master and rosout, sim time set
     r.init_ros()
     clock = rospy.Publisher('/clock', Clock, queue_size=100)

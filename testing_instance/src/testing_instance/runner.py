@@ -614,7 +614,8 @@ class Runner(Actions):
                     e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
 
     def write_meta(self):
-        """The recording's meta: seed, inputs (what a replay feeds), t0, duration, types."""
+        """The recording's meta: seed, inputs (what a replay feeds), t0, duration, types,
+        pipeline (how a replay times the apps' answers)."""
         if not self.recorder.active:
             return
         import rosgraph
@@ -625,7 +626,7 @@ class Runner(Actions):
             inputs = self.replay_meta['inputs']
         self.recorder.meta(dict(scenario=os.path.abspath(self.sc.path), seed=self.seed,
                                 real_time_factor=self.rtf, inputs=inputs, t0=self.t0,
-                                duration=self.sc.duration,
+                                duration=self.sc.duration, pipeline=self.sc.pipeline,
                                 types={t: intake.topic_types.get(t) for t in intake.subs}),
                            self.t)
 

@@ -10,6 +10,7 @@ world and app: the QR app decides on one slice's frames while the world steps th
   recording's meta says so, whatever the scenario file).
 """
 import os
+import re
 import shutil
 import subprocess
 import time
@@ -24,13 +25,19 @@ pytestmark = pytest.mark.rostest
 WORLD = ['/mobile_device/image_raw', '/mobile_device/camera_info']
 
 
-def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
+def qr_texts():
+    """The QR example (its app found from anywhere), plain and pipelined."""
     text = open(os.path.join(EX, 'qr_code.yaml')).read()
     text = text.replace('script: qr_app.py', 'script: %s' % os.path.join(EX, 'qr_app.py'))
+    return text, text.replace('\nduration: ', '\npipeline: true\nduration: ', 1)
+
+
+def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
+    text, piped = qr_texts()
     text = text.replace('record: [', 'record: [/mobile_device/camera_info, ')
     lock, pipe = tmp_path / 'lock.yaml', tmp_path / 'pipe.yaml'
     lock.write_text(text)
-    pipe.write_text(text.replace('\nduration: ', '\npipeline: true\nduration: ', 1))
+    pipe.write_text(piped.replace('record: [', 'record: [/mobile_device/camera_info, '))
     runs = {'lock': (lock, '--embedded'), 'pipe1': (pipe, '--embedded'),
             'pipe2': (pipe, '--embedded'), 'node': (pipe, '--world-node')}
     bags = {}
@@ -73,3 +80,16 @@ def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
                            timeout=300)
     assert rc == 0 and 'PASS app_decodes' in out, out
     assert bag_messages(rep, [result])[result] == a[result]
+
+
+def test_a_warm_farm_mixes_pipelined_and_plain_scenarios(tmp_path):
+    """One warm world runs a pipelined scenario, a plain one, a pipelined one: each app's
+    answer lands where its own mode puts it (the plain one's is not held back by the
+    pipelined one before it)."""
+    text, pipe = qr_texts()
+    for name, t in (('a_pipe', pipe), ('b_plain', text), ('c_pipe', pipe)):
+        (tmp_path / (name + '.yaml')).write_text(t)
+    rc, out = run_scenario(tmp_path, '--jobs', '1', timeout=300)
+    assert rc == 0, out
+    got = dict(re.findall(r"^\[(\w+)\.yaml\] PASS app_decodes: .* at t=([\d.]+) s$", out, re.M))
+    assert got == {'a_pipe': '0.100', 'b_plain': '0.050', 'c_pipe': '0.100'}, out

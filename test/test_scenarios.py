@@ -266,3 +266,23 @@ def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
     for topic in a:        # the messages and their recorded times (headerless ones too)
         assert a[topic] == b[topic], \
             '%s differs under load (%d vs %d messages)' % (topic, len(a[topic]), len(b[topic]))
+
+
+def test_a_second_scenario_on_an_attached_world_has_its_windows_from_its_start(tmp_path):
+    """An attached world that ran a scenario before is at that one's end (sim time 2): the
+    next scenario's expectation windows start where its timeline starts, as the first's
+    did (they were absolute: its window [0, 1] saw no message)."""
+    from fixtures.rosworld import office_world
+    from fixtures.scenario_cli import NODE, scenario_env
+    import sys
+    sc = os.path.join(HERE, 'data', 'scenario_attach_imu.yaml')
+    with office_world(tmp_path, 'paused:=true', 'real_time_factor:=0') as env:
+        outs = []
+        for _ in range(2):
+            p = subprocess.run([sys.executable, NODE, '--attach', sc], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, timeout=300,
+                               env=scenario_env(ROS_MASTER_URI=env['ROS_MASTER_URI']))
+            assert p.returncode == 0, p.stdout
+            outs.append(p.stdout)
+    assert 'PASS imu_in_first_second' in outs[1], outs[1]
+    assert re.search(r'in \[2\.0\d\d, 3\.0\d\d\] s', outs[1]), outs[1]

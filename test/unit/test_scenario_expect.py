@@ -95,6 +95,22 @@ def test_after_an_event_shifts_the_window():
     assert v.error and "never happened" in v.actual
 
 
+def test_a_world_not_at_sim_time_0_shifts_every_window():
+    """An attached world that ran before starts the scenario at its t0: a window without
+    'after' is relative to it, as the timeline is (it was absolute: a second scenario on a
+    rostest world saw no message in [0, 1])."""
+    e = Expectation({'name': 'e', 'topic': '/s', 'field': 'data',
+                     'eventually': {'equals': 'x'}, 'window': [0, 1]}, duration=2.0)
+    e.begin(2.0)
+    e.feed(0.5, String('x'))        # before the scenario: not in its window [2, 3]
+    e.feed(2.5, String('x'))
+    v = e.finish(4.0)
+    assert v.passed and v.t == 2.5 and '[2.000, 3.000] s' in v.expected
+    a = Expectation({'name': 'a', 'topic': '/s', 'after': 'go', 'eventually': {'equals': 1}})
+    a.begin(2.0)                    # 'after' windows wait for their event
+    assert a.window is None
+
+
 def test_missing_field_is_an_error_naming_it():
     v = run({'field': 'linear_acceleraton.z', 'eventually': {'gt': 0}}, [(1, imu(1))])
     assert v.error and v.status == 'ERROR'

@@ -290,6 +290,12 @@ class Expectation(object):
         if self.offset is None:
             self.offset = float(t_event)
 
+    def begin(self, t0):
+        """The scenario's sim time 0 is the world's ``t0`` (an attached world that has run
+        before: not 0): a window without ``after`` is relative to it, as the timeline is."""
+        if not self.after:
+            self.offset = float(t0)
+
     def expected_text(self):
         where = '%s%s' % (self.topic, '.' + self.field if self.field else '')
         if self.window is not None:

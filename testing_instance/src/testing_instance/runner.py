@@ -511,6 +511,8 @@ class Runner(Actions):
             self.warm.settle()                   # the last scenario's apps are gone
         self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
         self.t0 = self.t
+        for e in self.expectations:
+            e.begin(self.t0)
         self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
         self.subscribe_all()

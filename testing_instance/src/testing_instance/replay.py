@@ -157,9 +157,7 @@ def replay_run(r):
     msgs = rec.msgs
     if r.record_path:
         r.open_recording()
-    r.t0 = r.t = float(meta.get('t0', 0.0))
-    for e in r.expectations:
-        e.begin(r.t0)
+    r.start_at(float(meta.get('t0', 0.0)))
     clock.publish(Clock(rospy.Time.from_sec(r.t)))
     r.start_apps()
     r.subscribe_all()

@@ -155,6 +155,13 @@ class Runner(Actions):
         self.apps.launch(self._own_pending)
         self.apps.await_ready()
 
+    def start_at(self, t0):
+        """The scenario's sim time 0 is the world's (or the recording's) ``t0``: the
+        timeline and the expectations' windows count from it."""
+        self.t0 = self.t = t0
+        for e in self.expectations:
+            e.begin(t0)
+
     def stamp_held(self, last=False):
         """End of a slice handshake: time the held unstamped messages (Intake). A replay of
         a pipelined run times the apps' answers at the next slice's end (but the last)."""
@@ -509,10 +516,7 @@ class Runner(Actions):
         self._phase('apps')
         if self.warm is not None:
             self.warm.settle()                   # the last scenario's apps are gone
-        self.t = self._step_to(0.0)              # paused now (attach: wherever it was)
-        self.t0 = self.t
-        for e in self.expectations:
-            e.begin(self.t0)
+        self.start_at(self._step_to(0.0))       # paused now (attach: wherever it was)
         self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
         self.subscribe_all()

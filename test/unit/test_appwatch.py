@@ -3,6 +3,7 @@ processes: idle, busy, stopped, one that does not read its connection, and one t
 slowly after an uncaught exception."""
 import contextlib
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -121,6 +122,36 @@ def test_an_app_that_reads_is_not_hung(spawn):
         assert not w.misses
 
 
+VFORK_WAIT = r"""
+#include <unistd.h>
+int main(void) { if (vfork() == 0) { sleep(2); _exit(0); } return 0; }
+"""
+
+
+def test_an_app_waiting_in_the_kernel_has_not_answered(spawn, tmp_path):
+    """A thread in state D (uninterruptible: paging in a library on the first decode,
+    reading a file) is working for the app, not idle. A real one: the parent of vfork()
+    waits in state D until its child execs or exits (the child sleeps 2 s)."""
+    cc = shutil.which('cc') or shutil.which('gcc')
+    if cc is None:
+        pytest.skip('no C compiler')
+    src = tmp_path / 'vfork_wait.c'
+    src.write_text(VFORK_WAIT)
+    exe = str(tmp_path / 'vfork_wait')
+    subprocess.check_call([cc, '-o', exe, str(src)])
+    p = spawn('import subprocess, time; subprocess.call([%r]); time.sleep(60)' % exe)
+    kids = procs.ProcessTree().children()
+    states = [s for pid in procs.descendants(p.p.pid, kids) for s in procs.thread_states(pid)]
+    assert 'D' in states and 'R' not in states, states     # what the watch is shown
+    said = []
+    w = AppWatch([('/disk', p)], limit=0.4, give_up=5, warn=said.append)
+    assert waited(w) >= 0.4 and w.misses == {'/disk': 1}
+    busy = w._busy(procs.tcp_queues())
+    assert busy == [('/disk', 'waiting in the kernel (a thread in state D)')], busy
+    time.sleep(2.0)                       # the child exited: the app is idle again
+    assert waited(w) < 0.4 and not w.misses and not said
+
+
 # a Python app whose main thread raised: the traceback is printed at once, the exit (rospy's
 # shutdown: unregistering, joining threads) takes seconds; here the exit is an atexit sleep
 DIES_SLOWLY = ('import atexit, time\natexit.register(time.sleep, %g)\ntime.sleep(0.5)\n'
@@ -188,6 +219,55 @@ def test_tcp_queues_reads_what_proc_net_tcp_says():
     finally:
         for s in (c, a, lst):
             s.close()
+
+
+def test_tcp_queues_pair_the_two_ends_of_a_connection():
+    """TcpQueues.peer: the socket at the other end of a loopback connection, from both the
+    netlink dump and /proc/net/tcp; inbound: what that end has queued to send this one."""
+    lst = socket.socket()
+    lst.bind(('127.0.0.1', 0))
+    lst.listen(1)
+    c = socket.create_connection(lst.getsockname())
+    a, _ = lst.accept()
+    try:
+        ia, ic = os.fstat(a.fileno()).st_ino, os.fstat(c.fileno()).st_ino
+        for q in (procs.tcp_queues(), procs._tcp_queues_proc()):
+            assert q.peer(ia) == ic and q.peer(ic) == ia
+            assert q.peer(os.fstat(lst.fileno()).st_ino) is None      # not a connection
+            assert q.inbound(ia) == 0
+        # c sends more than a's receive queue and c's send queue can take at once: the rest
+        # waits at c while a's queue is full; c's send queue is what is on its way to a
+        a.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        c.setblocking(False)
+        sent = 0
+        try:
+            while sent < 1 << 24:
+                sent += c.send(b'x' * 65536)
+        except BlockingIOError:
+            pass
+        q = procs.tcp_queues()
+        assert q.inbound(ia) == q[ic][0] > 0 and q[ia][1] > 0
+        assert q.inbound(ia) + q[ia][1] == sent
+    finally:
+        for s in (c, a, lst):
+            s.close()
+
+
+def test_bytes_on_their_way_to_an_app_count_as_not_answered(spawn):
+    """An app whose receive queue is empty while its peer still has bytes queued for it (it
+    has just read what had arrived; the rest of a big message follows) has not answered:
+    the queues the watch is shown say so for the runner's end of the app's connection."""
+    with sent_5000_bytes(spawn, 'import socket\ns = socket.create_connection(("127.0.0.1", %d))\n'
+                                'while s.recv(65536): pass') as p:
+        w = AppWatch([('/reader', p)], limit=5.0)
+        w.wait(sleeper)                        # it read the 5000 bytes: idle
+        real = procs.tcp_queues()
+        app = [i for i in procs.socket_inodes(p.p.pid) if real.peer(i) is not None]
+        assert len(app) == 1, app
+        other = real.peer(app[0])
+        in_flight = procs.TcpQueues({other: (3000, 0)}, real.ends)
+        assert w._busy(in_flight) == [('/reader', '3000 bytes queued')]
+        assert w._busy(procs.TcpQueues({}, real.ends)) == []
 
 
 @pytest.mark.skipif(procs._FUTEX is None, reason='futex syscall number unknown here')

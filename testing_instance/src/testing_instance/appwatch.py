@@ -1,10 +1,14 @@
 """Has every app answered the slice? Evidence from /proc, not a wall-clock quiet period.
 
 Apps are black boxes in processes of their own. After a slice the world is paused, so an app
-that is done with the slice's messages is idle: none of its threads is running (state R),
+that is done with the slice's messages is idle: none of its threads is running (state R) or
+in an uninterruptible wait in the kernel (state D: paging in code or data from disk, as an
+app's first decode does when it touches a library for the first time, or reading a file),
 no byte waits on its TCP connections (nothing queued to send, nothing received and not yet
-read), and nothing it sent waits in the runner (the runner's sockets are empty and every
-message its subscriptions deserialised has reached the inbox: ``own_pending``). The runner
+read, nothing its peer has queued to send it: a receive thread that has just read its queue
+empty waits in recv() while the rest of a big message is still on the sender's side), and
+nothing it sent waits in the runner (the runner's sockets are empty and every message its
+subscriptions deserialised has reached the inbox: ``own_pending``). The runner
 checks that after each slice (``wait``), woken by every message that arrives. The world
 answers a step only once every message of the slice is written to its subscribers'
 sockets (sim_world.fastpub.wait_sent): a message still in the world's queue for an app
@@ -122,6 +126,8 @@ class AppWatch(object):
                 inodes |= procs.socket_inodes(pid)
             tx = sum(queues.get(i, (0, 0))[0] for i in inodes)
             rx = sum(queues.get(i, (0, 0))[1] for i in inodes)
+            inbound = getattr(queues, 'inbound', None)
+            rx += sum(inbound(i) for i in inodes) if inbound is not None else 0
             stopped = bool(states) and all(s in ('T', 't') for s in states)
             # a connection it does not read: bytes wait on it at every look
             seen = self.stuck.setdefault(name, {})
@@ -148,6 +154,8 @@ class AppWatch(object):
                 continue
             if any(s == 'R' for s in states):
                 out.append((name, 'running'))
+            elif any(s == 'D' for s in states):
+                out.append((name, 'waiting in the kernel (a thread in state D)'))
             elif tx or rx:
                 out.append((name, '%d bytes queued' % (tx + rx)))
             elif stopped:

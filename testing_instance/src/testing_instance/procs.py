@@ -538,11 +538,12 @@ _FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machin
 
 def receivers_busy():
     """Names of this process's rospy subscriber connection threads (rospy names each after
-    its topic) that are running or waiting for a lock (/proc/self/task/TID/syscall). An idle
-    one waits in the kernel for bytes; one that has taken a message's bytes off its socket
-    (the socket's queue is empty again) and has not yet handed the message to its callbacks
-    is running or, behind the GIL, waiting on a futex. [] where the futex syscall's number
-    is not known (another architecture)."""
+    its topic) that are running, waiting for a lock or blocked outside a system call
+    (/proc/self/task/TID/syscall: ``running``, the futex call, ``-1``: a page fault reading
+    code or data from disk). An idle one waits in the kernel for bytes; one that has taken a
+    message's bytes off its socket (the socket's queue is empty again) and has not yet
+    handed the message to its callbacks is running or, behind the GIL, waiting on a futex.
+    [] where the futex syscall's number is not known (another architecture)."""
     if _FUTEX is None:
         return []
     out = []
@@ -554,7 +555,7 @@ def receivers_busy():
                 call = f.read().split(None, 1)[0]
         except (OSError, IndexError):
             continue                                  # it ended just now
-        if call in ('running', _FUTEX):
+        if call in ('running', _FUTEX, '-1'):
             out.append(th.name)
     return out
 

@@ -268,6 +268,31 @@ def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
             '%s differs under load (%d vs %d messages)' % (topic, len(a[topic]), len(b[topic]))
 
 
+@pytest.mark.parametrize('mode', ['--embedded', '--world-node'])
+def test_an_apps_answer_reaches_the_world_at_the_slice_boundary(tmp_path, mode):
+    """The in-call app turns the display off when the proximity reading of tick 1.1 says
+    near. The battery, which draws for the display while it is on, measures at that same
+    tick: it must not see the app's answer there (the app answered after the tick; on a
+    quiet machine it used to arrive while the world was still in it), only at the next
+    measurement (sim_world.stepgate holds inputs while the world steps)."""
+    import rosbag
+    bag = tmp_path / 'incall.bag'
+    rc, out = run(os.path.join(EX, 'incall_proximity.yaml'), mode, '--record', bag)
+    assert rc == 0, out
+    with rosbag.Bag(str(bag)) as b:
+        power = {round(ts.to_sec(), 3): m.power_consumption for _t, m, ts in
+                 b.read_messages(topics=['/mobile_device/power_state'])}
+        near = [round(ts.to_sec(), 3) for _t, m, ts in
+                b.read_messages(topics=['/mobile_device/proximity']) if m.range < 0.05]
+        off = [round(ts.to_sec(), 3) for _t, m, ts in
+               b.read_messages(topics=['/mobile_device/display/enable']) if not m.data]
+    assert near and off == [near[0]], (near, off)      # answered in the reading's slice
+    t = near[0]
+    on = power[round(t - 0.1, 3)]
+    assert power[t] == pytest.approx(on), power         # the tick of the reading: still on
+    assert power[round(t + 0.1, 3)] < on - 0.1, power   # the next measurement: off
+
+
 def test_a_second_scenario_on_an_attached_world_has_its_windows_from_its_start(tmp_path):
     """An attached world that ran a scenario before is at that one's end (sim time 2): the
     next scenario's expectation windows start where its timeline starts, as the first's

@@ -104,6 +104,98 @@ def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
             c._cond_data_available.notify()
 
 
+class OneTopic(object):
+    """rospy's topic manager with one publication over the connection ``conn``."""
+
+    def __init__(self, conn, topic):
+        self.topic = topic
+        self.impl = type('Impl', (), {'connections': [conn]})()
+
+    def get_publications(self):
+        return [(self.topic, 'sensor_msgs/Image')]
+
+    def get_publisher_impl(self, topic):
+        return self.impl
+
+
+def test_messages_with_a_zero_stamp_are_timed_as_headerless_ones(monkeypatch):
+    """A headered topic's message with a zero stamp (a sensor at the first tick, a latched
+    topic that leaves it unset) is timed by the testing instance like a headerless one:
+    the connection notes its sim time, the stamped ones' not, and a drop keeps the two
+    lists in step."""
+    now = [2.0]
+    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
+    t = FakeTransport()
+    c = fastpub.NoYieldConnection(t, 3)
+    c.times = []                               # a subscriber that asked; unstamped is False
+    tm = OneTopic(c, '/img')
+    try:
+        c.write_data(b'first')                 # stamped; taken by the writer, which blocks
+        deadline = time.time() + 5
+        while c._queue and time.time() < deadline:
+            time.sleep(0.001)
+        for i, zero in enumerate([True, False, True, False, True]):
+            now[0] = 2.1 + 0.1 * i
+            fastpub._zero.on = zero
+            try:
+                c.write_data(b'm%d' % i)
+            finally:
+                fastpub._zero.on = False
+        assert c.dropped == 2                  # m0 (zero, 2.1) and m1 (stamped)
+        got = fastpub.take_times('/someone', tm)['/img']
+        assert [round(x, 3) for x in got] == [2.3, 2.5]
+        assert fastpub.take_times('/someone', tm) == {}
+    finally:
+        t.release.set()
+        t.done = True
+        with c._lock:
+            c._cond_data_available.notify()
+
+
+def test_no_yield_says_which_published_message_has_a_zero_stamp():
+    """The publisher tells its connections, for each message (the latched one sent to a new
+    subscriber too), whether its stamp is zero (fastpub.zero_stamped)."""
+    from sensor_msgs.msg import Range
+    seen = []
+
+    class Impl(object):
+        queue_size = 10
+        connections = []
+        is_latch = True                        # (a latched topic keeps rospy's own path)
+        resolved_name = '/range'
+        latch = None
+        publock = threading.RLock()
+
+        def add_connection(self, c):
+            seen.append(('connect', fastpub._zero.on))
+            return True
+
+    class Pub(object):
+        data_class = Range
+        impl = Impl()
+
+        def publish(self, *args, **kwds):
+            seen.append(('publish', fastpub._zero.on, args[0].header.stamp.secs))
+            Pub.impl.latch = args[0]
+    p = fastpub.no_yield(Pub())
+    stamped = Range()
+    stamped.header.stamp.secs = 3
+    p.publish(Range())
+    p.publish(stamped)
+    p.publish(header=Range().header, range=1.0)            # fields, not a message
+    p.impl.add_connection(FakeTransport())                  # sent the latched one: stamp 0
+    stamped2 = Range()
+    stamped2.header.stamp.secs = 4
+    p.publish(stamped2)
+    p.impl.add_connection(FakeTransport())
+    assert seen == [('publish', True, 0), ('publish', False, 3), ('publish', True, 0),
+                    ('connect', True), ('publish', False, 4), ('connect', False)]
+    assert not fastpub._zero.on
+    assert fastpub.zero_stamped(Range()) and not fastpub.zero_stamped(stamped)
+    from std_msgs.msg import String
+    assert not fastpub.zero_stamped(String())             # headerless: its type says so
+
+
 def test_writer_error_is_raised_on_the_next_write():
     t = FakeTransport()
     c = fastpub.NoYieldConnection(t, 2)

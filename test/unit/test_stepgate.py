@@ -70,3 +70,73 @@ def test_inputs_wait_while_the_gate_is_closed(monkeypatch):
     # open: at once, in the calling thread
     _SubscriberImpl.receive_callback(FakeSub(got), ['m3'], None)
     assert got[-1] == 'm3' and not stepgate.is_closed()
+
+
+def test_close_waits_for_inputs_already_in_hand():
+    """An input let through before the step (its callback running) is handled before the
+    step begins: close() returns once it is done, so it never lands inside a step."""
+    go, inside, got = threading.Event(), threading.Event(), []
+
+    class Slow(FakeSub):
+        def _invoke_callback(self, msg, cb, cb_args):
+            inside.set()
+            go.wait(10)
+            got.append(msg)
+    a = _later(_SubscriberImpl.receive_callback, Slow(got), ['slow'], None)
+    assert inside.wait(5)
+    closed = threading.Event()
+    c = _later(lambda: (stepgate.close(), closed.set()))
+    try:
+        time.sleep(0.2)
+        assert not closed.is_set() and got == []       # the step has not begun
+        go.set()
+        assert closed.wait(5) and got == ['slow']
+    finally:
+        go.set()
+        c.join(5)
+        stepgate.reopen()
+    a.join(5)
+
+
+def test_the_step_request_itself_does_not_wait_for_itself(monkeypatch):
+    """The sim_world node serves StepWorld through a service request, which passes the gate
+    like any other: closing the gate inside it must not wait for it."""
+    monkeypatch.setattr('rospy.impl.tcpros_service.convert_return_to_response',
+                        lambda r, cls: r)
+    took = []
+
+    class Transport(object):
+        write_buff = type('B', (), {'write': lambda self, b: None})()
+
+        def send_message(self, resp, seq):
+            pass
+
+    def step(req):
+        t0 = time.monotonic()
+        stepgate.close(wait=3.0)
+        took.append(time.monotonic() - t0)
+        stepgate.reopen()
+    svc = FakeService([])
+    svc.handler = step
+    ServiceImpl._handle_request(svc, Transport(), 'step')
+    assert len(took) == 1 and took[0] < 1.0
+
+
+def test_an_input_that_never_ends_delays_the_step_at_most_the_wait(caplog):
+    go, inside = threading.Event(), threading.Event()
+
+    class Stuck(FakeSub):
+        def _invoke_callback(self, msg, cb, cb_args):
+            inside.set()
+            go.wait(10)
+    a = _later(_SubscriberImpl.receive_callback, Stuck([]), ['x'], None)
+    assert inside.wait(5)
+    t0 = time.monotonic()
+    try:
+        stepgate.close(wait=0.3)
+        assert 0.25 <= time.monotonic() - t0 < 2.0
+        assert 'still in hand after 0.3 s' in caplog.text
+    finally:
+        stepgate.reopen()
+        go.set()
+    a.join(5)

@@ -41,6 +41,20 @@ _timed_subscribers = set()     # caller ids that asked for times (take_times)
 MAX_TIMES = 100000             # per connection, should a subscriber stop asking
 _sent = threading.Condition(threading.Lock())   # notified when a connection wrote a message
 _connections = weakref.WeakSet()                # the live NoYieldConnections
+_zero = threading.local()      # .on: the message this thread is publishing has a zero stamp
+
+
+def zero_stamped(msg):
+    """A message with a header whose stamp is zero: the testing instance times it as one
+    without a header (testing_instance.intake.stamp_of), so the world notes when it went
+    out (take_times) as for a headerless one. Sensors stamp the world's time, which is zero
+    at the first tick; the environment and other latched topics may leave it unset."""
+    st = getattr(getattr(msg, 'header', None), 'stamp', None)
+    return st is not None and not (st.secs or st.nsecs)
+
+
+def _unstamped_now(unstamped_type):
+    return unstamped_type or getattr(_zero, 'on', False)
 
 
 def set_sim_clock(fn):
@@ -62,9 +76,10 @@ class NoYieldConnection(_Queued):
     thread never lets go. ``handed`` counts the messages handed to this connection (latched
     replays included), ``dropped`` those the full queue lost: the testing instance's slice
     handshake waits for exactly ``handed - dropped`` (see :func:`handed_to`). ``times``
-    (a list, for topics without header stamps to a subscriber that asked, else None) holds
-    the sim time of each message handed over since the last :func:`take_times`, less
-    those dropped."""
+    (a list, for a subscriber that asked, else None) holds, for each message handed over
+    since the last :func:`take_times` less those dropped, the sim time it was handed over
+    at if it has no header stamp (a headerless type, or a zero stamp: zero_stamped), else
+    None."""
     dropped = 0
     handed = 0
     sent = 0
@@ -108,9 +123,9 @@ class NoYieldConnection(_Queued):
             with self._lock:
                 if self._held is None:
                     self._held = []
-                self._held.append((data, t))
+                self._held.append((data, t, _unstamped_now(self.unstamped)))
             return True
-        return self._hand(data, None)
+        return self._hand(data, None, _unstamped_now(self.unstamped))
 
     def release(self, drop=False):
         """Hand over (or with ``drop`` forget) the messages held back (:func:`hold`), in
@@ -118,10 +133,12 @@ class NoYieldConnection(_Queued):
         with self._lock:
             held, self._held = self._held, None
         if held and not drop:
-            for data, t in held:
-                self._hand(data, t)
+            for data, t, unstamped in held:
+                self._hand(data, t, unstamped)
 
-    def _hand(self, data, t):
+    def _hand(self, data, t, unstamped):
+        """Hand ``data`` (one serialized message, published at sim time ``t``, None: now;
+        ``unstamped``: without a header stamp) to the socket or the queue."""
         with self._lock:
             if self._error:
                 error, self._error = self._error, None
@@ -131,7 +148,7 @@ class NoYieldConnection(_Queued):
             self.handed += 1
             times = self.times
             if times is not None and _sim_clock[0] is not None:
-                times.append(_sim_clock[0]() if t is None else t)
+                times.append(None if not unstamped else _sim_clock[0]() if t is None else t)
                 if len(times) > MAX_TIMES:
                     del times[:len(times) - MAX_TIMES]
             sent_now = False
@@ -258,7 +275,7 @@ class _LocalDelivery(object):
         self.closed = False
         # as NoYieldConnection's, for this node's own subscribers (an embedded world's
         # runner is one): messages handed over, of those dropped by a full queue, and the
-        # sim times of the unstamped ones since the last take_times
+        # sim times of the unstamped ones since the last take_times (None for the others)
         self.handed = 0
         self.dropped = 0
         self.times = None
@@ -286,13 +303,13 @@ class _LocalDelivery(object):
         except ValueError:
             pass
 
-    def _note(self):
+    def _note(self, msg):
         """Count a message handed over (under self.cond)."""
         self.handed += 1
-        if self.times is None and self.unstamped and _own_id() in _timed_subscribers:
+        if self.times is None and _own_id() in _timed_subscribers:
             self.times = []
         if self.times is not None and _sim_clock[0] is not None:
-            self.times.append(_sim_clock[0]())
+            self.times.append(_sim_clock[0]() if self.unstamped or zero_stamped(msg) else None)
             if len(self.times) > MAX_TIMES:
                 del self.times[:len(self.times) - MAX_TIMES]
 
@@ -302,14 +319,14 @@ class _LocalDelivery(object):
             return
         if self.inline:
             with self.cond:
-                self._note()
+                self._note(msg)
             self._deliver(sub, (msg,))
             return
         if _inline_callbacks:
             now = [cc for cc in sub.callbacks if cc[0] in _inline_callbacks]
             if now:
                 with self.cond:
-                    self._note()
+                    self._note(msg)
                 for cb, cb_args in now:
                     sub._invoke_callback(msg, cb, cb_args)
                 if len(now) == len(sub.callbacks):
@@ -318,7 +335,7 @@ class _LocalDelivery(object):
                     self._queue(sub, msg, account=False)
                 return
         with self.cond:
-            self._note()
+            self._note(msg)
             self._queue(sub, msg)
 
     def _queue(self, sub, msg, account=True):
@@ -479,28 +496,35 @@ def no_yield(pub, inline_local=False):
         return pub
     orig_add = impl.add_connection
     topic = impl.resolved_name
-    local = _LocalDelivery(topic, inline_local, not getattr(pub.data_class, '_has_header', True)
-                           ) if not impl.is_latch else None
+    headered = getattr(pub.data_class, '_has_header', True)
+    local = _LocalDelivery(topic, inline_local, not headered) if not impl.is_latch else None
 
     def add_connection(c):
         if local is not None and getattr(c, 'endpoint_id', None) == rospy.get_caller_id():
             return orig_add(_LocalConnection(c, topic))
         nc = NoYieldConnection(c, qs)
-        nc.unstamped = not getattr(pub.data_class, '_has_header', True)
-        if nc.unstamped and getattr(c, 'endpoint_id', None) in _timed_subscribers:
+        nc.unstamped = not headered
+        if getattr(c, 'endpoint_id', None) in _timed_subscribers:
             nc.times = []           # from its first message (a latched one) on
-        return orig_add(nc)
+        if not (headered and impl.is_latch):
+            return orig_add(nc)
+        with impl.publock:          # (an RLock) the latched message it is sent at once
+            _zero.on = impl.latch is not None and zero_stamped(impl.latch)
+            try:
+                return orig_add(nc)
+            finally:
+                _zero.on = False
     impl.queue_size = None          # the original add_connection must not wrap it again
     impl.add_connection = add_connection
     impl._no_yield = True
+
+    def message(args, kwds):
+        if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):
+            return args[0]
+        from rospy.msg import args_kwds_to_message
+        return args_kwds_to_message(pub.data_class, args, kwds)
     if local is not None:
         orig_publish = pub.publish
-
-        def message(args, kwds):
-            if len(args) == 1 and not kwds and isinstance(args[0], pub.data_class):
-                return args[0]
-            from rospy.msg import args_kwds_to_message
-            return args_kwds_to_message(pub.data_class, args, kwds)
 
         def publish(*args, **kwds):
             if _only_local(impl, local):
@@ -519,6 +543,19 @@ def no_yield(pub, inline_local=False):
             local.close()           # its thread would wait for messages forever
             orig_unregister()
         pub.unregister = unregister
+    if headered:
+        inner = pub.publish
+
+        def publish_noting_zero_stamps(*args, **kwds):
+            # the connections time a message with a zero stamp (zero_stamped) as one
+            # without a header: the flag is this thread's, for this publish
+            msg = message(args, kwds)
+            _zero.on = zero_stamped(msg)
+            try:
+                return inner(msg)
+            finally:
+                _zero.on = False
+        pub.publish = publish_noting_zero_stamps
     return pub
 
 
@@ -579,23 +616,27 @@ def handed_to(subscriber, topic_manager=None):
 
 
 def take_times(subscriber, topic_manager=None):
-    """{topic: [sim time, ...]} of the messages without header stamps that this node's
-    publishers handed to the node ``subscriber`` since the last call, in the order sent
-    (and forgets them). The first call starts the recording for that subscriber (its
+    """{topic: [sim time, ...]} of the messages without header stamps (headerless types,
+    and messages whose stamp is zero: zero_stamped) that this node's publishers handed to
+    the node ``subscriber`` since the last call, in the order sent (and forgets them). The first call starts the recording for that subscriber (its
     connections opened later are timed from their first message on)."""
     if subscriber:
         _timed_subscribers.add(subscriber)
     out = {}
     for topic, c in _connections_to(subscriber, topic_manager):
-        if c.unstamped:
-            with c._lock:
-                got, c.times = c.times, []
-            if got:
-                out.setdefault(topic, []).extend(got)
+        with c._lock:
+            got = c.times
+            if got is not None:
+                c.times = []
+        got = [t for t in got if t is not None] if got else None
+        if got:
+            out.setdefault(topic, []).extend(got)
     for loc in _locals_to(subscriber):
-        if loc.unstamped:
-            with loc.cond:
-                got, loc.times = loc.times, []
-            if got:
-                out.setdefault(loc.topic, []).extend(got)
+        with loc.cond:
+            got = loc.times
+            if got is not None:
+                loc.times = []
+        got = [t for t in got if t is not None] if got else None
+        if got:
+            out.setdefault(loc.topic, []).extend(got)
     return out

@@ -79,6 +79,10 @@ class GazeboRosApi(object):
         # messages without header stamps are timed by the sim time they went out at, for
         # step_world's callers (the testing instance times them by it, not by arrival)
         fastpub.set_sim_clock(lambda: self.world.sim_time)
+        # before any subscriber connects: rospy hands each connection's receive thread the
+        # subscriber's receive_callback as it is then (a bound method), so a gate installed
+        # later would not hold the inputs of the connections made before
+        stepgate.install()
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
         self.step_until = None                   # step_world: pause at this sim time
@@ -232,11 +236,13 @@ class GazeboRosApi(object):
             # step: the runner's step to the current time before its timeline does it
             self.world.prepare_renderer()
         steps = until > self.world.sim_time + 0.5 * self.world.step_size
+        if steps:
+            # what other nodes send (an app's answer, a service call) waits for the step's
+            # end: it lands at a slice boundary however fast the app is (stepgate)
+            stepgate.close()
         if getattr(req, 'pipeline', False):
             if steps:
-                # the apps get the last slice now and work on it while this one runs; what
-                # they send waits for its end (stepgate)
-                stepgate.close()
+                # the apps get the last slice now and work on it while this one runs
                 fastpub.release()
                 fastpub.hold(keep=(req.subscriber,) if req.subscriber else ())
         elif fastpub.holding():

@@ -16,6 +16,7 @@ import re
 import time
 
 from .clock import ReplayClock
+from .intake import stamp_of
 from .procs import poll
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
 from .results import RunError
@@ -173,7 +174,7 @@ def replay_run(r):
     r.replay_meta = meta
     r.write_meta()
     def publish(topic, m, t):
-        if not getattr(m, '_has_header', True):   # timed by its recorded time (_time_held)
+        if stamp_of(m) is None:     # timed by its recorded time (_time_held)
             r.intake.input_at(topic, t)
         pubs[topic].publish(m)
     src = ReplayClock(msgs, publish,

@@ -193,16 +193,22 @@ def test_a_callback_exception_rospy_logs_is_not_waited_for(spawn, tmp_path):
     assert waited(w) < 1.0 and not w.exiting
 
 
-def test_tcp_queues_reads_what_proc_net_tcp_says():
-    """The sock_diag netlink dump gives the same queues as /proc/net/tcp: unread bytes on
-    the receiving socket, nothing for empty ones (ESTABLISHED only)."""
-    import socket
-    import time as _t
+def loopback_connection():
+    """(listening socket, client end, accepted end) of a new loopback TCP connection."""
     lst = socket.socket()
     lst.bind(('127.0.0.1', 0))
     lst.listen(1)
     c = socket.create_connection(lst.getsockname())
     a, _ = lst.accept()
+    return lst, c, a
+
+
+def test_tcp_queues_reads_what_proc_net_tcp_says():
+    """The sock_diag netlink dump gives the same queues as /proc/net/tcp: unread bytes on
+    the receiving socket, nothing for empty ones (ESTABLISHED only)."""
+    import socket
+    import time as _t
+    lst, c, a = loopback_connection()
     try:
         c.sendall(b'x' * 1234)
         inode = os.fstat(a.fileno()).st_ino
@@ -224,11 +230,7 @@ def test_tcp_queues_reads_what_proc_net_tcp_says():
 def test_tcp_queues_pair_the_two_ends_of_a_connection():
     """TcpQueues.peer: the socket at the other end of a loopback connection, from both the
     netlink dump and /proc/net/tcp; inbound: what that end has queued to send this one."""
-    lst = socket.socket()
-    lst.bind(('127.0.0.1', 0))
-    lst.listen(1)
-    c = socket.create_connection(lst.getsockname())
-    a, _ = lst.accept()
+    lst, c, a = loopback_connection()
     try:
         ia, ic = os.fstat(a.fileno()).st_ino, os.fstat(c.fileno()).st_ino
         for q in (procs.tcp_queues(), procs._tcp_queues_proc()):

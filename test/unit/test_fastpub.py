@@ -35,6 +35,14 @@ class FakeTransport(object):
         return True
 
 
+def _stop(c, t):
+    """Let the stuck FakeTransport ``t`` go and end the writer thread of connection ``c``."""
+    t.release.set()
+    t.done = True
+    with c._lock:
+        c._cond_data_available.notify()
+
+
 def test_no_yield_connection_yields_only_when_the_writer_falls_behind(monkeypatch):
     t = FakeTransport()
     c = fastpub.NoYieldConnection(t, 10)
@@ -98,10 +106,7 @@ def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
         assert fastpub.take_times('/someone', tm) == {}       # taken: forgotten
         assert fastpub.take_times('/other', tm) == {}         # not its connection
     finally:
-        t.release.set()
-        t.done = True
-        with c._lock:
-            c._cond_data_available.notify()
+        _stop(c, t)
 
 
 class OneTopic(object):
@@ -146,10 +151,7 @@ def test_messages_with_a_zero_stamp_are_timed_as_headerless_ones(monkeypatch):
         assert [round(x, 3) for x in got] == [2.3, 2.5]
         assert fastpub.take_times('/someone', tm) == {}
     finally:
-        t.release.set()
-        t.done = True
-        with c._lock:
-            c._cond_data_available.notify()
+        _stop(c, t)
 
 
 def test_no_yield_says_which_published_message_has_a_zero_stamp():
@@ -205,10 +207,7 @@ def test_writer_error_is_raised_on_the_next_write():
             c.write_data(b'x')
         assert c.write_data(b'y') is True       # reported once
     finally:
-        t.release.set()
-        t.done = True
-        with c._lock:
-            c._cond_data_available.notify()
+        _stop(c, t)
 
 
 def test_no_yield_leaves_unqueued_publishers_alone():
@@ -310,10 +309,7 @@ def test_wait_sent_returns_once_the_writer_wrote_every_message():
         assert time.monotonic() - t0 < 3.0
         assert t.got == [b'm0', b'm1', b'm2'] and c.unsent() == 0 and c.sent == 3
     finally:
-        t.release.set()
-        t.done = True
-        with c._lock:
-            c._cond_data_available.notify()
+        _stop(c, t)
     c.write_data(b'late')                        # a closed connection holds nothing
     assert c.unsent() == 0
 

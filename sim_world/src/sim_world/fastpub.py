@@ -618,25 +618,20 @@ def handed_to(subscriber, topic_manager=None):
 def take_times(subscriber, topic_manager=None):
     """{topic: [sim time, ...]} of the messages without header stamps (headerless types,
     and messages whose stamp is zero: zero_stamped) that this node's publishers handed to
-    the node ``subscriber`` since the last call, in the order sent (and forgets them). The first call starts the recording for that subscriber (its
-    connections opened later are timed from their first message on)."""
+    the node ``subscriber`` since the last call, in the order sent (and forgets them). The
+    first call starts the recording for that subscriber (its connections opened later are
+    timed from their first message on)."""
     if subscriber:
         _timed_subscribers.add(subscriber)
+    holders = [(topic, c, c._lock) for topic, c in _connections_to(subscriber, topic_manager)]
+    holders += [(loc.topic, loc, loc.cond) for loc in _locals_to(subscriber)]
     out = {}
-    for topic, c in _connections_to(subscriber, topic_manager):
-        with c._lock:
-            got = c.times
+    for topic, holder, lock in holders:
+        with lock:
+            got = holder.times
             if got is not None:
-                c.times = []
+                holder.times = []
         got = [t for t in got if t is not None] if got else None
         if got:
             out.setdefault(topic, []).extend(got)
-    for loc in _locals_to(subscriber):
-        with loc.cond:
-            got = loc.times
-            if got is not None:
-                loc.times = []
-        got = [t for t in got if t is not None] if got else None
-        if got:
-            out.setdefault(loc.topic, []).extend(got)
     return out

@@ -25,7 +25,7 @@ import logging
 import threading
 import time
 
-__all__ = ['close', 'install', 'is_closed', 'reopen', 'wait_open']
+__all__ = ['close', 'install', 'is_closed', 'reopen']
 
 log = logging.getLogger('sim_world.stepgate')
 
@@ -66,16 +66,8 @@ def is_closed():
     return _closed[0]
 
 
-def wait_open():
-    """Return once the gate is open (at once when it is)."""
-    if not _closed[0]:
-        return
-    with _cond:
-        while _closed[0]:
-            _cond.wait()
-
-
 def _enter():
+    """An input passes the gate (waits while it is closed) and counts as in hand."""
     me = threading.get_ident()
     with _cond:
         while _closed[0]:

@@ -126,8 +126,7 @@ class AppWatch(object):
                 inodes |= procs.socket_inodes(pid)
             tx = sum(queues.get(i, (0, 0))[0] for i in inodes)
             rx = sum(queues.get(i, (0, 0))[1] for i in inodes)
-            inbound = getattr(queues, 'inbound', None)
-            rx += sum(inbound(i) for i in inodes) if inbound is not None else 0
+            rx += sum(queues.inbound(i) for i in inodes)
             stopped = bool(states) and all(s in ('T', 't') for s in states)
             # a connection it does not read: bytes wait on it at every look
             seen = self.stuck.setdefault(name, {})

@@ -15,3 +15,9 @@ os.environ.setdefault('ROS_HOSTNAME', 'localhost')
 # rostest node scripts and helper programs are run by rostest / the suites' wrappers, not
 # collected by pytest (they would wait for a ROS master forever).
 collect_ignore_glob = ['rostest/*', 'tinyros/*', 'data/*']
+
+
+
+def pytest_unconfigure(config):
+    from fixtures import exit_watch
+    exit_watch.arm()

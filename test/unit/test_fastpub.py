@@ -158,7 +158,7 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
     """The publisher tells its connections, for each message (the latched one sent to a new
     subscriber too), whether its stamp is zero (fastpub.zero_stamped)."""
     from sensor_msgs.msg import Range
-    seen = []
+    seen, made = [], []
 
     class Impl(object):
         queue_size = 10
@@ -170,6 +170,7 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
 
         def add_connection(self, c):
             seen.append(('connect', fastpub._zero.on))
+            made.append(c)
             return True
 
     class Pub(object):
@@ -190,6 +191,8 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
     stamped2.header.stamp.secs = 4
     p.publish(stamped2)
     p.impl.add_connection(FakeTransport())
+    for c in made:                                          # end their writer threads
+        _stop(c, c._connection)
     assert seen == [('publish', True, 0), ('publish', False, 3), ('publish', True, 0),
                     ('connect', True), ('publish', False, 4), ('connect', False)]
     assert not fastpub._zero.on

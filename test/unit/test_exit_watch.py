@@ -1,0 +1,43 @@
+"""The suite's exit watch (test/fixtures/exit_watch.py, armed by conftest): a thread left
+running after the last test is named, and the process exits 1 instead of hanging."""
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TEST = os.path.dirname(HERE)
+
+SCRIPT = '''
+import sys, threading
+sys.path.insert(0, %r)
+from fixtures import exit_watch
+stop = threading.Event()
+if sys.argv[1] == 'leak':
+    threading.Thread(target=stop.wait, name='forgotten writer').start()
+exit_watch.arm(seconds=2)
+print('main done', flush=True)
+'''
+
+
+def _run(mode):
+    t0 = time.monotonic()
+    p = subprocess.run([sys.executable, '-c', SCRIPT % TEST, mode], stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, text=True, timeout=60)
+    return p, time.monotonic() - t0
+
+
+def test_a_thread_left_running_is_named_and_the_process_exits_1():
+    p, took = _run('leak')
+    assert p.returncode == 1, (p.returncode, p.stderr)
+    assert 'main done' in p.stdout
+    assert "threads still running after the last test" in p.stderr
+    assert "'forgotten writer'" in p.stderr and 'Timeout' in p.stderr
+    assert 'in wait' in p.stderr                   # the stack says where it waits
+    assert took < 30
+
+
+def test_without_a_leak_the_process_ends_at_once_with_its_own_status():
+    p, took = _run('clean')
+    assert p.returncode == 0, p.stderr
+    assert p.stderr == '' and took < 30

@@ -98,13 +98,25 @@ class PhoneSensors(unittest.TestCase):
         while pub.get_num_connections() < 1 and time.time() < deadline:
             time.sleep(0.05)
         pub.publish(Bool(True))
-        sim_sleep(1.5)
-        self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 1)
-        self.assertLess(self.rec['power_state'].msgs[-1].power_consumption, 0.001)
-        self.assertEqual(self.rec['battery_state'].msgs[-1].power_supply_status,
-                         BatteryState.POWER_SUPPLY_STATUS_FULL)
-        pub.publish(Bool(False))
-        sim_sleep(1.5)
+        try:
+            sim_sleep(1.5)
+            ps = self.rec['power_state'].msgs[-1]
+            self.assertEqual(ps.AC_present, 1)
+            self.assertIn(self.rec['battery_state'].msgs[-1].power_supply_status,
+                          (BatteryState.POWER_SUPPLY_STATUS_CHARGING,
+                           BatteryState.POWER_SUPPLY_STATUS_FULL))
+            # how far below full depends on how long the world ran before (it runs at real
+            # time from launch: seconds more on a loaded machine); the power state predicts
+            # when it is full, and at 1 Hz the battery state says so within a second after
+            left = ps.time_remaining.to_sec() if ps.power_consumption < 0 else 0.0
+            self.assertLess(left, 60.0)
+            sim_sleep(left + 1.5)
+            self.assertLess(self.rec['power_state'].msgs[-1].power_consumption, 0.001)
+            self.assertEqual(self.rec['battery_state'].msgs[-1].power_supply_status,
+                             BatteryState.POWER_SUPPLY_STATUS_FULL)
+        finally:
+            pub.publish(Bool(False))           # the other tests see the battery discharging
+            sim_sleep(1.5)
         self.assertEqual(self.rec['power_state'].msgs[-1].AC_present, 0)
 
     def test_proximity_hand(self):

@@ -235,8 +235,13 @@ def test_on_new_publisher_hears_this_processes_publishers_only(monkeypatch):
     listeners = RegistrationListeners()       # this test's own, not the process's
     monkeypatch.setattr(registration, 'get_registration_listeners', lambda: listeners)
     heard = []
-    Intake(Inbox(), Recorder()).on_new_publisher(heard.append)
+    it = Intake(Inbox(), Recorder())
+    it.on_new_publisher(heard.append)
     listeners.notify_added('/mobile_device/late', 'std_msgs/String', Registration.PUB)
     listeners.notify_added('/mobile_device/sub', 'std_msgs/String', Registration.SUB)
     listeners.notify_added('/gazebo/srv', 'rosrpc://x:1', Registration.SRV)
     assert heard == ['/mobile_device/late']
+    it.close()                                # the run is over: no longer told
+    listeners.notify_added('/mobile_device/later', 'std_msgs/String', Registration.PUB)
+    assert heard == ['/mobile_device/late'] and listeners.listeners == []
+    it.close()                                # twice: nothing to remove

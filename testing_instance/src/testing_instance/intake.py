@@ -47,6 +47,7 @@ class Intake(object):
         self.hold_unstamped = False  # once stepping: unstamped messages are held
         self.input_node = None     # the caller id of the inputs: the world, or a replay
         self.input_times = {}      # topic -> deque of sim times of its unstamped inputs
+        self._listener = None      # rospy's registration listener (on_new_publisher)
 
     def start(self, rospy, embedded=False, own_topics=None):
         self.rospy = rospy
@@ -68,7 +69,8 @@ class Intake(object):
 
             def reg_removed(self, resolved_name, data_type_or_uri, reg_type):
                 pass
-        get_registration_listeners().add_listener(Listener())
+        self._listener = Listener()
+        get_registration_listeners().add_listener(self._listener)
 
     def world_name(self):
         """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
@@ -199,10 +201,18 @@ class Intake(object):
 
     def close(self, unregister=True):
         """Unsubscribe everything (``unregister=False``: the master is gone, rospy's own
-        clean-up at exit is one quiet call instead of a failing one per topic)."""
+        clean-up at exit is one quiet call instead of a failing one per topic), and stop
+        listening for new publishers (a later run in this process has its own listener)."""
         for s in self.subs.values():
             if unregister:
                 s.unregister()
+        listener, self._listener = self._listener, None
+        if listener is not None:
+            from rospy.impl.registration import get_registration_listeners
+            regs = get_registration_listeners()
+            with regs.lock:
+                if listener in regs.listeners:
+                    regs.listeners.remove(listener)
 
     # -- timing ----------------------------------------------------------------------------
     def on_message(self, msg, topic):

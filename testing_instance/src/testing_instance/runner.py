@@ -210,7 +210,11 @@ class Runner(Actions):
         self.step_srv = self.world.step_srv
 
     def _spawn_more_phones(self):
+        """The scenario's phones after the first (which the launch file spawns). An
+        attached world may have them already (a .test file that spawns both): kept."""
         for ph in self.sc.phones[1:]:
+            if self.attach and self.world.has_model(ph['ns']):
+                continue
             xacro = os.path.join(PKG_ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
             self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
                         ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))

@@ -267,9 +267,10 @@ class WorldSide(object):
         return self._proxies[name]
 
     def wait_phones(self, deadline, check):
-        """Until the scenario's phone models are in the world (``check()`` raises when a
-        process is gone)."""
-        for ph in self.sc.phones[:1] if not self.attach else self.sc.phones:
+        """Until the scenario's first phone model is in the world (the launch file's;
+        ``check()`` raises when a process is gone). The others are spawned by the runner
+        (``has_model`` tells it which an attached world has already)."""
+        for ph in self.sc.phones[:1]:
             def there(ns=ph['ns']):
                 check()
                 try:
@@ -278,6 +279,13 @@ class WorldSide(object):
                     return False
             if not poll(there, deadline, first=0.005, most=0.05):
                 raise RunError('phone model %r did not appear' % ph['ns'], self.log_tail())
+
+    def has_model(self, name):
+        """Is model ``name`` in the world now?"""
+        try:
+            return bool(self.get_state(name, '').success)
+        except Exception:  # noqa: BLE001 - a refused call: not there
+            return False
 
     def stopped(self):
         """After a failed step: give roslaunch the time to tear down after its node died."""

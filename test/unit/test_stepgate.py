@@ -140,3 +140,56 @@ def test_an_input_that_never_ends_delays_the_step_at_most_the_wait(caplog):
         stepgate.reopen()
         go.set()
     a.join(5)
+
+
+@pytest.mark.skipif(stepgate._FUTEX is None, reason='futex syscall number unknown here')
+def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_gate():
+    """The world as a node of its own: a receive thread that has read a message off its
+    socket but not yet reached the gate (here: still working on it for 0.3 s) holds the
+    step back, so the message lands before the step, not a slice later. An embedded world's
+    step (not a request from a socket) does not look: its runner does."""
+    import socket
+    a, b = socket.socketpair()
+    done = []
+
+    def receive():                     # rospy's receive loop: recv, deserialise, callback
+        while True:
+            data = a.recv(10)
+            if not data:
+                return
+            t_end = time.monotonic() + 0.3
+            while time.monotonic() < t_end:     # deserialising a big message
+                pass
+            done.append(time.monotonic())
+    th = threading.Thread(target=receive, name='/app/answer', daemon=True)
+    th.start()
+    try:
+        time.sleep(0.05)
+        assert stepgate.receivers_busy() == []                  # waiting for bytes: idle
+        # embedded: the runner's own thread asks (not through the gate): no wait
+        b.send(b'x')
+        time.sleep(0.05)
+        assert stepgate.receivers_busy() == ['/app/answer']
+        t0 = time.monotonic()
+        stepgate.close()
+        stepgate.reopen()
+        assert not done and time.monotonic() - t0 < 0.2
+        while not done:
+            time.sleep(0.01)
+        done.clear()
+        # a world node: the step request is an input this thread is handling
+        b.send(b'y')
+        time.sleep(0.05)
+        stepgate._enter()
+        try:
+            stepgate.close()
+            assert done, 'the step began before the message read off its socket was handled'
+            assert stepgate.receivers_busy() == []
+        finally:
+            stepgate.reopen()
+            stepgate._leave()
+    finally:
+        b.close()
+        th.join(5)
+        a.close()
+    assert not th.is_alive()

@@ -234,3 +234,69 @@ def test_the_core_sets_sim_time_and_starts_rosout_without_it(tmp_path, monkeypat
     names = [c[1] for c in params_then]
     assert names[0] == '/use_sim_time' and params_then[0][2] is True
     assert set(names) == {'/use_sim_time', '/run_id', '/rosdistro', '/rosversion'}
+
+
+class _FakeMaster(object):
+    """A ROS master's XML-RPC API as far as an attached run asks it (getPid, lookupService);
+    /gazebo/step_world is listed from ``world_at`` (monotonic s) on."""
+
+    def __init__(self, world_at=None):
+        import threading
+        import time
+        from xmlrpc.server import SimpleXMLRPCServer
+        self.world_at, self.looks = world_at, 0
+        self.server = SimpleXMLRPCServer(('localhost', 0), logRequests=False, allow_none=True)
+        self.server.register_function(lambda caller: [1, 'pid', os.getpid()], 'getPid')
+
+        def lookup(caller, name):
+            self.looks += 1
+            if self.world_at is not None and time.monotonic() >= self.world_at \
+                    and name == '/gazebo/step_world':
+                return [1, 'uri', 'rosrpc://localhost:1']
+            return [-1, 'no provider', '']
+        self.server.register_function(lookup, 'lookupService')
+        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.thread.start()
+        self.uri = 'http://localhost:%d' % self.server.server_address[1]
+
+    def stop(self):
+        self.server.shutdown()
+        self.server.server_close()
+
+
+def _attached(tmp_path, uri, monkeypatch):
+    monkeypatch.setenv('ROS_MASTER_URI', uri)
+    return WorldSide(_sc(), str(tmp_path), attach=True)
+
+
+def test_attached_without_a_master_is_one_error_naming_the_uri(tmp_path, monkeypatch):
+    import time
+    uri = 'http://localhost:%d' % procs.free_port()
+    ws = _attached(tmp_path, uri, monkeypatch)
+    t0 = time.monotonic()
+    with pytest.raises(RunError) as e:
+        ws._find_attached(time.monotonic() + 30, master_grace=0.5)
+    assert str(e.value).startswith('--attach: no ROS master answers at %s (ROS_MASTER_URI) '
+                                   'within 0.5 s' % uri)
+    assert time.monotonic() - t0 < 10            # rospy alone would retry for ever
+
+
+def test_attached_waits_for_the_world_before_its_node_is_made(tmp_path, monkeypatch):
+    import time
+    m = _FakeMaster(world_at=time.monotonic() + 0.4)
+    try:
+        ws = _attached(tmp_path, m.uri, monkeypatch)
+        ws._find_attached(time.monotonic() + 10, master_grace=5)
+        assert time.monotonic() >= m.world_at and m.looks >= 2
+    finally:
+        m.stop()
+    m = _FakeMaster(world_at=None)               # a master, but no world ever
+    try:
+        ws = _attached(tmp_path, m.uri, monkeypatch)
+        with pytest.raises(RunError) as e:
+            ws._find_attached(time.monotonic() + 1.0, master_grace=0.3)
+        assert str(e.value).startswith('--attach: the ROS master at %s lists no '
+                                       '/gazebo/step_world within' % m.uri)
+        assert str(e.value).endswith('no world to attach to')
+    finally:
+        m.stop()

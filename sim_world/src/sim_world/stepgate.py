@@ -17,15 +17,24 @@ the last slice's messages while the world steps the next one.
 callback that began before the step ends before the step begins), so an input lands at a
 slice boundary, never inside a step.
 
+A world that is a node of its own (the step request came over a socket) first waits,
+before it closes the gate, until none of its receive threads holds a message it has taken
+off its socket and not yet brought to the gate (:func:`receivers_busy`): the testing
+instance's evidence that an app has answered ends at the world's socket queues, and a
+message read from its socket, still being deserialised or waiting for the GIL, is in no
+queue (bench/load found the NFC example's OK recorded a slice late in 1 attached run of 6).
+An embedded world's runner checks the same threads itself, as its own.
+
 Messages this node publishes to itself (sim_world.fastpub's local deliveries: a world's
 /clock, the camera preview of the display, an embedded world's messages to the runner) do
 not pass a socket and are not held.
 """
 import logging
+import platform
 import threading
 import time
 
-__all__ = ['close', 'install', 'is_closed', 'reopen']
+__all__ = ['close', 'install', 'is_closed', 'receivers_busy', 'reopen']
 
 log = logging.getLogger('sim_world.stepgate')
 
@@ -39,12 +48,16 @@ CLOSE_WAIT = 5.0         # s of wall time close() waits for inputs in hand
 def close(wait=CLOSE_WAIT):
     """From now on, inputs from sockets wait (install() first); returns once the inputs
     already let through are handled (other threads' only: the caller may be serving one,
-    the step request itself), at most ``wait`` s of wall time."""
+    the step request itself), at most ``wait`` s of wall time. Called while serving a
+    request from a socket (the world is a node of its own), it first waits until no
+    receive thread holds a message between its socket and the gate."""
     install()
     me = threading.get_ident()
+    deadline = time.monotonic() + wait
+    if me in _active:
+        _settle(me, deadline)
     with _cond:
         _closed[0] = True
-        deadline = time.monotonic() + wait
         while any(t != me for t in _active):
             left = deadline - time.monotonic()
             if left <= 0:
@@ -53,6 +66,50 @@ def close(wait=CLOSE_WAIT):
                             wait)
                 break
             _cond.wait(left)
+
+
+def _settle(me, deadline):
+    """Until no receive thread but ``me`` is busy (receivers_busy), at most to
+    ``deadline``; the wait hands the GIL to them."""
+    busy = receivers_busy(exclude=me)
+    while busy:
+        if time.monotonic() >= deadline:
+            log.warning('stepgate: the receive thread of %s still busy after %.1f s: the '
+                        'step begins anyway', busy[0], CLOSE_WAIT)
+            return
+        with _cond:
+            _cond.wait(0.0005)
+        busy = receivers_busy(exclude=me)
+
+
+# the futex syscall's number (a thread waiting for a lock: the GIL), per architecture
+_FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machine())
+
+
+def receivers_busy(exclude=None):
+    """Names of this process's rospy subscriber connection threads (rospy names each after
+    its topic; but thread ``exclude``) that are running, waiting for a lock or blocked
+    outside a system call (/proc/self/task/TID/syscall: ``running``, the futex call,
+    ``-1``: a page fault reading code or data from disk). An idle one waits in the kernel
+    for bytes; one that has taken a message's bytes off its socket (the socket's queue is
+    empty again) and has not yet handed the message to its callbacks is running or, behind
+    the GIL, waiting on a futex. [] where the futex syscall's number is not known (another
+    architecture)."""
+    if _FUTEX is None:
+        return []
+    out = []
+    for th in threading.enumerate():
+        if not th.name.startswith('/') or not getattr(th, 'native_id', None) \
+                or th.ident == exclude:
+            continue
+        try:
+            with open('/proc/self/task/%d/syscall' % th.native_id) as f:
+                call = f.read().split(None, 1)[0]
+        except (OSError, IndexError):
+            continue                                  # it ended just now
+        if call in ('running', _FUTEX, '-1'):
+            out.append(th.name)
+    return out
 
 
 def reopen():

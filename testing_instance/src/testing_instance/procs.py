@@ -457,6 +457,25 @@ def world_node(proc):
     return {}
 
 
+def local_node_pid(name, master=None):
+    """The pid of ROS node ``name`` when it runs on this machine (its XML-RPC URI is on a
+    local address and its getPid names a process here), else None: how an attached run
+    finds the world node somebody else launched."""
+    import rosgraph
+    import xmlrpc.client
+    from urllib.parse import urlparse
+    try:
+        uri = (master or rosgraph.Master('/scenario_runner')).lookupNode(name)
+        host = urlparse(uri).hostname or ''
+        if host not in ('localhost', socket.gethostname(), socket.getfqdn()) and \
+                not host.startswith('127.'):
+            return None
+        code, _msg, pid = xmlrpc.client.ServerProxy(uri).getPid('/scenario_runner')
+    except Exception:  # noqa: BLE001 - gone, or not a node: not watched
+        return None
+    return pid if code == 1 and isinstance(pid, int) and state(pid) is not None else None
+
+
 def cmdline(pid):
     try:
         with open('/proc/%d/cmdline' % pid, 'rb') as f:
@@ -532,32 +551,8 @@ def socket_inodes(pid):
     return out
 
 
-# the futex syscall's number (a thread waiting for a lock: the GIL), per architecture
-_FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machine())
-
-
-def receivers_busy():
-    """Names of this process's rospy subscriber connection threads (rospy names each after
-    its topic) that are running, waiting for a lock or blocked outside a system call
-    (/proc/self/task/TID/syscall: ``running``, the futex call, ``-1``: a page fault reading
-    code or data from disk). An idle one waits in the kernel for bytes; one that has taken a
-    message's bytes off its socket (the socket's queue is empty again) and has not yet
-    handed the message to its callbacks is running or, behind the GIL, waiting on a futex.
-    [] where the futex syscall's number is not known (another architecture)."""
-    if _FUTEX is None:
-        return []
-    out = []
-    for th in threading.enumerate():
-        if not th.name.startswith('/') or not getattr(th, 'native_id', None):
-            continue
-        try:
-            with open('/proc/self/task/%d/syscall' % th.native_id) as f:
-                call = f.read().split(None, 1)[0]
-        except (OSError, IndexError):
-            continue                                  # it ended just now
-        if call in ('running', _FUTEX, '-1'):
-            out.append(th.name)
-    return out
+# the one copy, in the world's step gate (a world node checks its own receive threads)
+from sim_world.stepgate import _FUTEX, receivers_busy  # noqa: E402,F401 - re-exported
 
 
 class TcpQueues(dict):

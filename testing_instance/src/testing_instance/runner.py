@@ -386,6 +386,12 @@ class Runner(Actions):
         for pid in self.world.world_pids():
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
                 return 'bytes waiting on a socket of pid %d' % pid
+            # a world node of its own handling an input (in its callback, or publishing what
+            # the input caused to an app): an app that looks idle now has more coming
+            # (bench/load: the NFC example's OK, handled as the step answer went out, reached
+            # phone A during the next step, a slice late, in 2 attached runs of 8)
+            if pid != os.getpid() and any(st in ('R', 'D') for st in procs.thread_states(pid)):
+                return 'the world node (pid %d) is handling an input' % pid
         # a message off its socket, not yet through its callbacks: a receive thread of this
         # process (the runner's subscriptions; an embedded world's too) behind the GIL
         busy = procs.receivers_busy()

@@ -32,6 +32,7 @@ __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
 
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                          '..', '..', '..'))
+MASTER_GRACE = 15.0    # s an attached run waits for ROS_MASTER_URI's master to answer
 LAUNCHES = {
     'office': os.path.join(PKG_ROOT, 'sim_world', 'launch', 'office.launch'),
 }
@@ -78,6 +79,9 @@ class WorldSide(object):
         answers. The world itself may still be loading (``connect`` waits for it)."""
         if self.warm is not None:
             return     # WarmHost.prepare, called by the runner once its node can be made
+        if self.attach:
+            self._find_attached(deadline)
+            return
         if self.embedded and self._start_embedded(deadline):
             return
         if not self.attach:
@@ -87,6 +91,39 @@ class WorldSide(object):
                                      os.path.join(self.run_dir, 'world.log'))
             self.start_master(deadline)
             self._launch(deadline)
+
+    def _find_attached(self, deadline, master_grace=MASTER_GRACE):
+        """Attached: wait until ROS_MASTER_URI's master answers (at most ``master_grace``
+        s) and lists /gazebo/step_world, before this process makes its node: roslaunch sets
+        every parameter of its launch file (/use_sim_time among them) before it starts the
+        world node, so the node then runs on sim time. (Made earlier, as when roslaunch and
+        the run start together, rospy read no /use_sim_time and recorded the latched
+        /gazebo/environment at its wall-clock time; with no master at all it retried for
+        ever.)"""
+        import rosgraph
+        uri = self.master_uri() or rosgraph.get_master_uri()
+        m = rosgraph.Master('/scenario_runner', master_uri=uri)
+        seen, t0 = {}, time.monotonic()
+
+        def world_up():
+            try:
+                m.getPid()
+                seen['master'] = True
+                return bool(m.lookupService('/gazebo/step_world'))
+            except Exception:  # noqa: BLE001 - no master yet (OSError), no world (Failure)
+                return False
+        if poll(world_up, min(deadline, time.monotonic() + master_grace), first=0.005,
+                most=0.1):
+            return
+        if not seen.get('master'):
+            raise RunError('--attach: no ROS master answers at %s (ROS_MASTER_URI) within '
+                           '%g s; start the world first (a .test file, or roslaunch of its '
+                           'launch file with paused:=true), or run without --attach'
+                           % (uri, master_grace))
+        if not poll(world_up, deadline, first=0.005, most=0.1):
+            raise RunError('--attach: the ROS master at %s lists no /gazebo/step_world '
+                           'within %.0f s: no world to attach to'
+                           % (uri, time.monotonic() - t0))
 
     def _launch(self, deadline):
         """``roslaunch --wait`` of the launch file on the run's master, once that master
@@ -301,6 +338,10 @@ class WorldSide(object):
         watched by pid (roslaunch keeps running when either dies)."""
         self.watch.update(self.warm.watched() if self.warm is not None
                           else procs.world_node(self.proc))
+        if self.attach and self.node:
+            pid = procs.local_node_pid(self.node)
+            if pid is not None:        # a world on this machine: watched as a launched one
+                self.watch['the world node %s' % self.node] = pid
 
     def world_pids(self):
         """The pids of the world's node (this process, embedded)."""

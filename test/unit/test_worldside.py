@@ -300,3 +300,11 @@ def test_attached_waits_for_the_world_before_its_node_is_made(tmp_path, monkeypa
         assert str(e.value).endswith('no world to attach to')
     finally:
         m.stop()
+
+
+def test_attached_without_ros_master_uri_uses_rosgraphs_default(tmp_path, monkeypatch):
+    import rosgraph
+    monkeypatch.delenv('ROS_MASTER_URI', raising=False)
+    ws = WorldSide(_sc(), str(tmp_path), attach=True)
+    assert ws.master_uri() == rosgraph.get_master_uri()
+    assert ws.master_uri().rstrip('/') == 'http://localhost:11311'

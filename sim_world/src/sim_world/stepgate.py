@@ -55,7 +55,7 @@ def close(wait=CLOSE_WAIT):
     me = threading.get_ident()
     deadline = time.monotonic() + wait
     if me in _active:
-        _settle(me, deadline)
+        _settle(me, deadline, wait)
     with _cond:
         _closed[0] = True
         while any(t != me for t in _active):
@@ -68,14 +68,14 @@ def close(wait=CLOSE_WAIT):
             _cond.wait(left)
 
 
-def _settle(me, deadline):
+def _settle(me, deadline, wait):
     """Until no receive thread but ``me`` is busy (receivers_busy), at most to
-    ``deadline``; the wait hands the GIL to them."""
+    ``deadline`` (``wait`` s after close() began); the wait hands the GIL to them."""
     busy = receivers_busy(exclude=me)
     while busy:
         if time.monotonic() >= deadline:
             log.warning('stepgate: the receive thread of %s still busy after %.1f s: the '
-                        'step begins anyway', busy[0], CLOSE_WAIT)
+                        'step begins anyway', busy[0], wait)
             return
         with _cond:
             _cond.wait(0.0005)

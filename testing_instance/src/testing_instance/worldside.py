@@ -72,7 +72,13 @@ class WorldSide(object):
                              None if self.attach else self.port)
 
     def master_uri(self):
-        return self.env()['ROS_MASTER_URI']
+        """The run's master; attached without ROS_MASTER_URI, rosgraph's default (as rospy
+        would use)."""
+        uri = self.env().get('ROS_MASTER_URI')
+        if not uri:
+            import rosgraph
+            uri = rosgraph.get_master_uri()
+        return uri
 
     def start(self, deadline):
         """Start (or reuse, or find) the master and the world; returns once the master
@@ -84,13 +90,12 @@ class WorldSide(object):
             return
         if self.embedded and self._start_embedded(deadline):
             return
-        if not self.attach:
-            path, args = self.launch_args()
-            # roslaunch's Python start runs while the master starts (procs.Launch)
-            self.proc = procs.Launch([path] + args, procs.launch_env(self.env(), self.run_dir),
-                                     os.path.join(self.run_dir, 'world.log'))
-            self.start_master(deadline)
-            self._launch(deadline)
+        path, args = self.launch_args()
+        # roslaunch's Python start runs while the master starts (procs.Launch)
+        self.proc = procs.Launch([path] + args, procs.launch_env(self.env(), self.run_dir),
+                                 os.path.join(self.run_dir, 'world.log'))
+        self.start_master(deadline)
+        self._launch(deadline)
 
     def _find_attached(self, deadline, master_grace=MASTER_GRACE):
         """Attached: wait until ROS_MASTER_URI's master answers (at most ``master_grace``
@@ -101,7 +106,7 @@ class WorldSide(object):
         /gazebo/environment at its wall-clock time; with no master at all it retried for
         ever.)"""
         import rosgraph
-        uri = self.master_uri() or rosgraph.get_master_uri()
+        uri = self.master_uri()
         m = rosgraph.Master('/scenario_runner', master_uri=uri)
         seen, t0 = {}, time.monotonic()
 
@@ -310,10 +315,7 @@ class WorldSide(object):
         for ph in self.sc.phones[:1]:
             def there(ns=ph['ns']):
                 check()
-                try:
-                    return self.get_state(ns, '').success
-                except Exception:  # noqa: BLE001 - service not yet there
-                    return False
+                return self.has_model(ns)
             if not poll(there, deadline, first=0.005, most=0.05):
                 raise RunError('phone model %r did not appear' % ph['ns'], self.log_tail())
 
@@ -321,7 +323,7 @@ class WorldSide(object):
         """Is model ``name`` in the world now?"""
         try:
             return bool(self.get_state(name, '').success)
-        except Exception:  # noqa: BLE001 - a refused call: not there
+        except Exception:  # noqa: BLE001 - a refused call, or the service not yet there
             return False
 
     def stopped(self):

@@ -66,6 +66,34 @@ def test_point_lands_on_the_pixel_camera_info_predicts(w, h, hfov, cx, cy, cam, 
     r.remove_model('ball')
 
 
+def test_a_thread_that_reuses_an_ended_threads_id_still_draws():
+    """Thread ids come back: a renderer's worker started after another thread that last
+    used the context has ended often gets that thread's id. The context must still be
+    made current in it (it was not: frames came back from a context current nowhere,
+    'NULL pointer access', when the suite ran in another order)."""
+    import threading
+    ctx = get_context()
+    idents, frames = [], []
+    for i in range(4):
+        r = Renderer()
+        r.add_model(_model('ball%d' % i, Geometry('sphere', radius=0.3), Pose((2, 0, 0)), RED))
+        done = threading.Event()
+
+        def keep(rgb, depth, done=done):
+            frames.append(_red(rgb).sum())
+            done.set()
+        r.submit(CameraView(40, 40, math.radians(60), Pose(), background=(0, 0, 0)), keep)
+        assert done.wait(10)
+        idents.append(r._worker.ident)
+        r._jobs.put(None)                 # the worker ends; nothing else touches the context
+        r._worker.join(10)
+        r._worker = None
+    assert len(set(idents)) < len(idents), 'no thread id came back: the case is not shown'
+    assert len(frames) == 4 and min(frames) > 50, frames
+    with ctx:                             # and the thread that made the context still can
+        ctx.target(3, 3)
+
+
 def test_camera_looks_along_link_x_with_z_up():
     r = Renderer()
     # red ball ahead (+x) and above (+z): top half of the image; nothing behind the camera

@@ -86,6 +86,11 @@ class Context(object):
         # The default framebuffer is a 1x1 dummy: all drawing goes to FBOs.
         self._buf = arrays.GLubyteArray.zeros((1, 1, 4))
         self.lock = threading.RLock()
+        # which thread the context was last made current in: a token object of that
+        # thread's own (thread-local), not threading.get_ident(), which the next thread
+        # gets again once a thread has ended -- a renderer worker started after another
+        # one ended would then skip OSMesaMakeCurrent and draw with no context at all
+        self._tls = threading.local()
         self._current_thread = None
         self._depth_count = 0
         self._targets = {}
@@ -98,8 +103,10 @@ class Context(object):
     # -- current / locking ---------------------------------------------------------------
     def make_current(self):
         """Make the context current in the calling thread (hold ``ctx.lock`` around use)."""
-        me = threading.get_ident()
-        if self._current_thread != me:
+        me = getattr(self._tls, 'token', None)
+        if me is None:
+            me = self._tls.token = object()
+        if self._current_thread is not me:
             ok = self._osmesa.OSMesaMakeCurrent(self._ctx, self._buf,
                                                 self._GL.GL_UNSIGNED_BYTE, 1, 1)
             if not ok:

@@ -17,7 +17,6 @@ os.environ.setdefault('ROS_HOSTNAME', 'localhost')
 collect_ignore_glob = ['rostest/*', 'tinyros/*', 'data/*']
 
 
-
-def pytest_unconfigure(config):
-    from fixtures import exit_watch
-    exit_watch.arm()
+# the exit watch: a thread left running after the last test is named, with the test that
+# started it, and the run exits 1 instead of hanging (fixtures/exit_watch.py)
+from fixtures.exit_watch import pytest_runtest_protocol, pytest_unconfigure  # noqa: E402,F401

@@ -41,3 +41,38 @@ def test_without_a_leak_the_process_ends_at_once_with_its_own_status():
     p, took = _run('clean')
     assert p.returncode == 0, p.stderr
     assert p.stderr == '' and took < 30
+
+
+LEAKY_TEST = '''
+import threading
+stop = threading.Event()
+
+def test_quiet():
+    assert True
+
+def test_that_forgets_its_thread():
+    threading.Thread(target=stop.wait, name='forgotten writer').start()
+
+def test_after_it():
+    assert True
+'''
+
+
+def test_under_pytest_the_thread_is_named_with_the_test_that_started_it(tmp_path):
+    (tmp_path / 'test_leaky.py').write_text(LEAKY_TEST)
+    env = dict(os.environ, PYTHONPATH=TEST + os.pathsep + os.environ.get('PYTHONPATH', ''))
+    t0 = time.monotonic()
+    p = subprocess.run([sys.executable, '-c',
+                        'import sys, pytest\n'
+                        'from fixtures import exit_watch\n'
+                        'exit_watch.SECONDS = 2\n'
+                        'sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "-p", '
+                        '"fixtures.exit_watch", sys.argv[1]]))', str(tmp_path / 'test_leaky.py')],
+                       cwd=str(tmp_path), env=env, stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, text=True, timeout=120)
+    assert '3 passed' in p.stdout, p.stdout
+    assert p.returncode == 1, (p.returncode, p.stderr)
+    assert ("'forgotten writer' (started in test_leaky.py::test_that_forgets_its_thread)"
+            in p.stderr), p.stderr
+    assert 'test_quiet' not in p.stderr and 'test_after_it' not in p.stderr
+    assert time.monotonic() - t0 < 60

@@ -193,3 +193,66 @@ def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_g
         th.join(5)
         a.close()
     assert not th.is_alive()
+
+
+class _SocketTransport(object):
+    """What ServiceImpl.handle reads of its transport: one request per receive_once, taken
+    off a socket and then 'deserialised' for 0.3 s; closing ends the connection."""
+
+    def __init__(self, sock):
+        self.sock = sock
+
+    def receive_once(self):
+        from rospy.exceptions import TransportTerminated
+        data = self.sock.recv(10)
+        if not data:
+            raise TransportTerminated('closed')
+        t_end = time.monotonic() + 0.3
+        while time.monotonic() < t_end:
+            pass
+        return [data]
+
+    def write_data(self, data):
+        pass
+
+    def close(self):
+        pass
+
+
+def test_a_service_request_read_off_its_socket_holds_the_step_back_too():
+    """A service connection's thread (rospy leaves it unnamed) is named after its service
+    once the gate is installed, so a request it has read and is still deserialising holds
+    a step requested over a socket back, as a subscriber's message does."""
+    import socket
+    stepgate.install()
+    a, b = socket.socketpair()
+    done = []
+    svc = FakeService(done)
+    svc.resolved_name = '/phone/inject_touch'
+    svc.response_class = None
+    svc.error_handler = lambda *a: None
+    svc._write_service_error = lambda *a: None
+    svc._handle_request = lambda transport, request: ServiceImpl._handle_request(
+        svc, transport, request)
+    th = threading.Thread(target=ServiceImpl.handle, daemon=True,
+                          args=(svc, _SocketTransport(a), {'persistent': '1'}))
+    th.start()
+    try:
+        time.sleep(0.05)
+        assert th.name == '/phone/inject_touch'
+        assert stepgate.receivers_busy() == []                  # waiting for a request
+        b.send(b'touch')
+        time.sleep(0.05)
+        assert stepgate.receivers_busy() == ['/phone/inject_touch']
+        stepgate._enter()                                       # the step request
+        try:
+            stepgate.close()
+            assert done == [b'touch'], 'the step began before the request was served'
+        finally:
+            stepgate.reopen()
+            stepgate._leave()
+    finally:
+        b.close()
+        th.join(5)
+        a.close()
+    assert not th.is_alive()

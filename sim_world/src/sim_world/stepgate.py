@@ -18,8 +18,9 @@ callback that began before the step ends before the step begins), so an input la
 slice boundary, never inside a step.
 
 A world that is a node of its own (the step request came over a socket) first waits,
-before it closes the gate, until none of its receive threads holds a message it has taken
-off its socket and not yet brought to the gate (:func:`receivers_busy`): the testing
+before it closes the gate, until none of its receive threads (a subscriber's, or one
+serving a service connection) holds a message or request it has taken off its socket and
+not yet brought to the gate (:func:`receivers_busy`): the testing
 instance's evidence that an app has answered ends at the world's socket queues, and a
 message read from its socket, still being deserialised or waiting for the GIL, is in no
 queue (bench/load found the NFC example's OK recorded a slice late in 1 attached run of 6).
@@ -88,7 +89,8 @@ _FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machin
 
 def receivers_busy(exclude=None):
     """Names of this process's rospy subscriber connection threads (rospy names each after
-    its topic; but thread ``exclude``) that are running, waiting for a lock or blocked
+    its topic) and service connection threads (named after their service by install();
+    but thread ``exclude``) that are running, waiting for a lock or blocked
     outside a system call (/proc/self/task/TID/syscall: ``running``, the futex call,
     ``-1``: a page fault reading code or data from disk). An idle one waits in the kernel
     for bytes; one that has taken a message's bytes off its socket (the socket's queue is
@@ -146,7 +148,8 @@ def _leave():
 def install():
     """Wrap rospy's delivery of received messages to a subscriber's callbacks and its
     handling of a service request so that both pass the gate first and are counted while
-    they run (once per process). Before any subscriber connects (sim_world.gazebo_api does
+    they run, and name each thread serving a service connection after the service
+    (receivers_busy), once per process. Before any subscriber connects (sim_world.gazebo_api does
     it as it starts): each connection's receive thread keeps the receive_callback it was
     given, so connections made before the wrapping would bypass the gate."""
     if _installed[0]:
@@ -168,6 +171,15 @@ def install():
             return handle(self, transport, request)
         finally:
             _leave()
+    handle_connection = ServiceImpl.handle
+
+    def serve_connection(self, transport, header):
+        # rospy leaves the thread serving a service connection unnamed; named after the
+        # service, like a subscriber's receive thread after its topic, receivers_busy sees
+        # a request read off its socket and not yet at the gate
+        threading.current_thread().name = self.resolved_name
+        return handle_connection(self, transport, header)
     _SubscriberImpl.receive_callback = receive_callback
     ServiceImpl._handle_request = _handle_request
+    ServiceImpl.handle = serve_connection
     _installed[0] = True

@@ -20,3 +20,6 @@ collect_ignore_glob = ['rostest/*', 'tinyros/*', 'data/*']
 # the exit watch: a thread left running after the last test is named, with the test that
 # started it, and the run exits 1 instead of hanging (fixtures/exit_watch.py)
 from fixtures.exit_watch import pytest_runtest_protocol, pytest_unconfigure  # noqa: E402,F401
+
+# MDS_SHUFFLE_SEED=N: the test files in an order drawn from N (fixtures/shuffle.py)
+from fixtures.shuffle import pytest_collection_modifyitems, pytest_report_header  # noqa: E402,F401,E501

@@ -34,6 +34,15 @@ class FakeService(object):
         self.handler = lambda req: got.append(req)
 
 
+@pytest.fixture(autouse=True)
+def _installed():
+    """The gate wraps rospy's delivery once per process, before any subscriber exists (the
+    world's API does it as it starts). Every test reads the wrapped methods, so each
+    installs it first: a test that relied on an earlier one in the same process failed when
+    pytest-xdist gave it a process of its own (found by bench/flaky)."""
+    stepgate.install()
+
+
 def _later(fn, *args):
     th = threading.Thread(target=fn, args=args, daemon=True)
     th.start()

@@ -23,3 +23,8 @@ from fixtures.exit_watch import pytest_runtest_protocol, pytest_unconfigure  # n
 
 # MDS_SHUFFLE_SEED=N: the test files in an order drawn from N (fixtures/shuffle.py)
 from fixtures.shuffle import pytest_collection_modifyitems, pytest_report_header  # noqa: E402,F401,E501
+
+
+# a test that removes or changes an environment variable and does not give it back errors,
+# named, and the variable is given back (fixtures/env_kept.py)
+from fixtures.env_kept import _environment_kept  # noqa: E402,F401

@@ -37,17 +37,16 @@ def _exited_proc(tmp_path, code, text='world: could not load office.world', log=
     return p
 
 
-def test_env_points_at_the_runs_master_and_log_folder_unless_attached(tmp_path):
+def test_env_points_at_the_runs_master_and_log_folder_unless_attached(tmp_path, monkeypatch):
     ws = WorldSide(_sc(), str(tmp_path), port=11999)
     env = ws.env()
     assert env['ROS_MASTER_URI'] == ws.master_uri() == 'http://localhost:11999'
     assert env['ROS_LOG_DIR'] == str(tmp_path / 'log')
-    os.environ['ROS_MASTER_URI'] = 'http://elsewhere:11311'
-    try:
-        att = WorldSide(_sc(), str(tmp_path), port=11999, attach=True)
-        assert att.master_uri() == 'http://elsewhere:11311'
-    finally:
-        del os.environ['ROS_MASTER_URI']
+    # monkeypatch gives the process its own value back (this test once deleted it, and the
+    # tests that ran after it in the same process lost ROS_MASTER_URI: bench/flaky)
+    monkeypatch.setenv('ROS_MASTER_URI', 'http://elsewhere:11311')
+    att = WorldSide(_sc(), str(tmp_path), port=11999, attach=True)
+    assert att.master_uri() == 'http://elsewhere:11311'
 
 
 def test_a_dead_world_node_is_named_with_its_ros_log(tmp_path):

@@ -1,6 +1,7 @@
 """sim_world.stepgate without a roscore: while the gate is closed (the world steps a
 pipelined slice) a message received from a socket and a service request wait in the thread
 that got them, and go through, in order, once it is open again."""
+import contextlib
 import threading
 import time
 
@@ -41,6 +42,19 @@ def _installed():
     installs it first: a test that relied on an earlier one in the same process failed when
     pytest-xdist gave it a process of its own (found by bench/flaky)."""
     stepgate.install()
+
+
+@contextlib.contextmanager
+def _step_requested_over_a_socket():
+    """What a world node does when its step request arrives: the request is an input this
+    thread handles (past the gate), and the step closes the gate; inside, the step runs."""
+    stepgate._enter()
+    try:
+        stepgate.close()
+        yield
+    finally:
+        stepgate.reopen()
+        stepgate._leave()
 
 
 def _later(fn, *args):
@@ -189,14 +203,9 @@ def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_g
         # a world node: the step request is an input this thread is handling
         b.send(b'y')
         time.sleep(0.05)
-        stepgate._enter()
-        try:
-            stepgate.close()
+        with _step_requested_over_a_socket():
             assert done, 'the step began before the message read off its socket was handled'
             assert stepgate.receivers_busy() == []
-        finally:
-            stepgate.reopen()
-            stepgate._leave()
     finally:
         b.close()
         th.join(5)
@@ -253,13 +262,8 @@ def test_a_service_request_read_off_its_socket_holds_the_step_back_too():
         b.send(b'touch')
         time.sleep(0.05)
         assert stepgate.receivers_busy() == ['/phone/inject_touch']
-        stepgate._enter()                                       # the step request
-        try:
-            stepgate.close()
+        with _step_requested_over_a_socket():
             assert done == [b'touch'], 'the step began before the request was served'
-        finally:
-            stepgate.reopen()
-            stepgate._leave()
     finally:
         b.close()
         th.join(5)

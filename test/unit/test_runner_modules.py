@@ -127,6 +127,105 @@ def test_an_actions_publisher_is_woken_by_its_subscriber_connecting_not_by_polli
     assert not _Connected().wait(lambda: 0, 0.05)    # nobody: gives up at the timeout
 
 
+def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(monkeypatch):
+    """Action publishers are synchronous (rospy: no queue_size; its warning about that is
+    kept quiet): a queued publisher's thread could write after the next step request, and
+    the world took a radio switched off at sim time 0 a slice late. Publishing marks the
+    next step as following inputs (Runner._step)."""
+    import warnings
+    from testing_instance.actions import Actions
+    made = []
+
+    class Pub(object):
+        def __init__(self, topic, cls, **kw):
+            warnings.warn('The publisher should be created with an explicit keyword '
+                          "argument 'queue_size'", SyntaxWarning)
+            made.append((topic, kw))
+            self.sent = []
+
+        def get_num_connections(self):
+            return 1
+
+        def publish(self, msg):
+            self.sent.append(msg)
+    monkeypatch.setattr(rospy, 'Publisher', Pub)
+    a = Actions()
+    a.pubs, a.inputs_sent = {}, False
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        a._publish('/mobile_device/wifi/enable', String('off'))
+        a._publish('/mobile_device/wifi/enable', String('on'))
+    assert [(t, kw['queue_size'], kw['latch']) for t, kw in made] == [
+        ('/mobile_device/wifi/enable', None, True)]
+    assert [m.data for m in a.pubs[('/mobile_device/wifi/enable', 'std_msgs/String')].sent] \
+        == ['off', 'on']
+    assert a.inputs_sent
+
+
+def _busy_receiver(name):
+    """A receive thread named like rospy's (after its topic) that, for each message read
+    off its socket, works 0.3 s before it is handled: (socket to write to, handled list,
+    thread)."""
+    import socket
+    import threading
+    import time
+    a, b = socket.socketpair()
+    done = []
+
+    def receive():
+        while True:
+            data = a.recv(10)
+            if not data:
+                a.close()
+                return
+            t_end = time.monotonic() + 0.3
+            while time.monotonic() < t_end:         # deserialising, behind the GIL
+                pass
+            done.append(data)
+    th = threading.Thread(target=receive, name=name, daemon=True)
+    th.start()
+    return b, done, th
+
+
+@pytest.mark.parametrize('embedded', [True, False])
+def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(embedded):
+    """An embedded world is this process: before a step that follows the actions' messages
+    the runner waits until its receive threads have handled what was written to their
+    sockets (stepgate.settle), so the world takes the input at this slice boundary. A world
+    node's step request waits for its own receive threads (stepgate.close): the runner
+    does not look. Without an action since the last step, no look."""
+    import time
+    from types import SimpleNamespace
+    from testing_instance.runner import Runner
+    sock, done, th = _busy_receiver('/mobile_device/wifi/enable')
+    seen = []
+
+    def step_srv(**kw):
+        seen.append(list(done))
+        return SimpleNamespace(success=True, topics=[], counts=[], dropped=[])
+    r = SimpleNamespace(embedded=embedded, inputs_sent=True, step_srv=step_srv,
+                        rospy=SimpleNamespace(get_name=lambda: '/sim_world'),
+                        sc=SimpleNamespace(pipeline=False),
+                        intake=SimpleNamespace(note_times=lambda answer: None))
+    try:
+        time.sleep(0.05)
+        sock.send(b'off')                   # what the synchronous publisher wrote
+        time.sleep(0.05)
+        Runner._step(r, 0.05)
+        assert seen == [[b'off']] if embedded else seen == [[]]
+        assert not r.inputs_sent
+        while not done:
+            time.sleep(0.01)
+        sock.send(b'on')
+        time.sleep(0.05)
+        Runner._step(r, 0.1)                # no action since the last step: no look
+        assert seen[-1] == [b'off']
+    finally:
+        sock.close()
+        th.join(5)
+    assert not th.is_alive()
+
+
 def test_poll_looks_again_soon_then_less_often_and_gives_up_at_the_deadline(monkeypatch):
     import time
     sleeps = []

@@ -24,7 +24,9 @@ not yet brought to the gate (:func:`receivers_busy`): the testing
 instance's evidence that an app has answered ends at the world's socket queues, and a
 message read from its socket, still being deserialised or waiting for the GIL, is in no
 queue (bench/load found the NFC example's OK recorded a slice late in 1 attached run of 6).
-An embedded world's runner checks the same threads itself, as its own.
+An embedded world's runner checks the same threads itself, as its own: after a slice (the
+apps' answers) and, with :func:`settle`, before a step that follows its own actions'
+messages to the world (a charger plugged at sim time 0 landed a slice late under load).
 
 Messages this node publishes to itself (sim_world.fastpub's local deliveries: a world's
 /clock, the camera preview of the display, an embedded world's messages to the runner) do
@@ -35,7 +37,7 @@ import platform
 import threading
 import time
 
-__all__ = ['close', 'install', 'is_closed', 'receivers_busy', 'reopen']
+__all__ = ['close', 'install', 'is_closed', 'receivers_busy', 'reopen', 'settle']
 
 log = logging.getLogger('sim_world.stepgate')
 
@@ -69,6 +71,15 @@ def close(wait=CLOSE_WAIT):
             _cond.wait(left)
 
 
+def settle(wait=CLOSE_WAIT):
+    """Until no receive thread of this process but the caller's is busy (receivers_busy):
+    a message written to one of its sockets has been taken off and handled. At most
+    ``wait`` s of wall time (a WARNING then). For a caller that is not itself an input,
+    such as an embedded world's runner before it steps past its own actions' messages
+    (close() does it for a step requested over a socket). True when settled."""
+    return _settle(threading.get_ident(), time.monotonic() + wait, wait)
+
+
 def _settle(me, deadline, wait):
     """Until no receive thread but ``me`` is busy (receivers_busy), at most to
     ``deadline`` (``wait`` s after close() began); the wait hands the GIL to them."""
@@ -77,10 +88,11 @@ def _settle(me, deadline, wait):
         if time.monotonic() >= deadline:
             log.warning('stepgate: the receive thread of %s still busy after %.1f s: the '
                         'step begins anyway', busy[0], wait)
-            return
+            return False
         with _cond:
             _cond.wait(0.0005)
         busy = receivers_busy(exclude=me)
+    return True
 
 
 # the futex syscall's number (a thread waiting for a lock: the GIL), per architecture

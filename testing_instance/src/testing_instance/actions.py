@@ -83,21 +83,33 @@ class Actions(object):
         self.env_values.update(values)
 
     def _publisher(self, topic, cls, latch=True):
+        """The action publisher of ``topic``: synchronous (no queue_size), so that when
+        publish() returns the message's bytes are in every subscriber's socket. A queued
+        publisher's own thread could write them after the next step request: the world
+        then took the input a slice late (a radio switched off at sim time 0 was still on
+        in the first step's messages, under load)."""
+        import warnings
         import rospy
         key = (topic, cls._type)
         if key not in self.pubs:
             connected = _Connected()
-            self.pubs[key] = rospy.Publisher(topic, cls, queue_size=100, latch=latch,
-                                             subscriber_listener=connected)
+            with warnings.catch_warnings():
+                # rospy warns about a publisher without a queue_size: here it is the point
+                warnings.simplefilter('ignore', SyntaxWarning)
+                self.pubs[key] = rospy.Publisher(topic, cls, queue_size=None, latch=latch,
+                                                 subscriber_listener=connected)
             self.pubs[key].connected = connected
         return self.pubs[key]
 
     def _publish(self, topic, msg):
         """Publish once a subscriber (an app) is connected, at most 5 s of wall time later:
-        woken by rospy's SubscribeListener as it connects, not by polling."""
+        woken by rospy's SubscribeListener as it connects, not by polling. The next step
+        lets the world take it first (Runner._step: an embedded world's receive threads
+        settle; a world node's step request waits for them, sim_world.stepgate)."""
         pub = self._publisher(topic, type(msg))
         pub.connected.wait(pub.get_num_connections, 5.0)
         pub.publish(msg)
+        self.inputs_sent = True
 
     def _spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):
         ev = ev or {'id': 'phones', 'action': 'spawn_model'}

@@ -35,6 +35,8 @@ import tempfile
 import threading
 import time
 
+from sim_world import stepgate
+
 from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
 from .apps import Apps
@@ -104,6 +106,7 @@ class Runner(Actions):
         self.replayed_subs = None  # a replay: the topics it counts (sync_replayed)
         self.topics_checked = 0.0  # sim time of the last look at the master's topics
         self.topics_dirty = False  # a model was spawned since: look again at once
+        self.inputs_sent = False   # an action published since the last step
         self.topics_new = False    # embedded: this process declared a publisher since
         self.topic_looks = 0       # looks at the master's topics (the handshake line)
 
@@ -564,6 +567,12 @@ class Runner(Actions):
         return WorldClock(self._step, self._world_stopped).step_to(t_next)
 
     def _step(self, until, pipeline=None):
+        if self.inputs_sent:
+            self.inputs_sent = False
+            if self.embedded:
+                # this process's receive threads take the actions' messages off their
+                # sockets before the step (a world node's step request waits for its own)
+                stepgate.settle()
         r = self.step_srv(until=until, subscriber=self.rospy.get_name(),
                           pipeline=self.sc.pipeline if pipeline is None else pipeline)
         if not r.success:

@@ -9,14 +9,13 @@ world and app: the QR app decides on one slice's frames while the world steps th
 - replaying a pipelined recording times the app's answers as the live run did (the
   recording's meta says so, whatever the scenario file).
 """
+import contextlib
 import os
 import re
-import shutil
-import subprocess
-import time
 
 import pytest
 
+from fixtures.hogs import cpu_hogs
 from fixtures.scenario_cli import run_scenario
 from test_scenarios import EX, bag_messages, verdicts
 
@@ -43,18 +42,9 @@ def test_pipelined_app_answers_one_slice_later_the_same_every_run(tmp_path):
     bags = {}
     for name, (f, mode) in runs.items():
         bag = tmp_path / (name + '.bag')
-        hogs = None
-        if name == 'pipe2':        # while two CPU hogs compete for the cores
-            hogs = subprocess.Popen([shutil.which('stress-ng'), '--cpu', '2', '--timeout',
-                                     '600'], stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.DEVNULL)
-            time.sleep(1.0)
-        try:
+        # pipe2 while two CPU hogs compete for the cores
+        with cpu_hogs() if name == 'pipe2' else contextlib.nullcontext():
             rc, out = run_scenario(f, mode, '--record', bag, timeout=300)
-        finally:
-            if hogs is not None:
-                hogs.terminate()
-                hogs.wait()
         assert rc == 0, out
         assert set(verdicts(out).values()) == {'PASS'}, out
         bags[name] = bag_messages(bag)

@@ -13,7 +13,6 @@ import glob
 import os
 import re
 import subprocess
-import time
 
 import pytest
 
@@ -242,21 +241,13 @@ def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
     """The slice handshake has no wall-clock quiet period to miss: the example with an app
     gives the same verdicts and the same recorded messages at the same times, while two
     CPU hogs (stress-ng --cpu 2) compete for the machine's cores."""
-    import shutil
-    stress = shutil.which('stress-ng')
-    assert stress, 'stress-ng is installed by tools/setup'
+    from fixtures.hogs import cpu_hogs
     sc = os.path.join(EX, 'auto_rotate.yaml')
     calm, loaded = tmp_path / 'calm.bag', tmp_path / 'loaded.bag'
     rc, out_calm = run(sc, '--record', calm)
     assert rc == 0, out_calm
-    hogs = subprocess.Popen([stress, '--cpu', '2', '--timeout', '600'],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        time.sleep(1.0)
+    with cpu_hogs():
         rc, out_loaded = run(sc, '--record', loaded)
-    finally:
-        hogs.terminate()
-        hogs.wait()
     assert rc == 0, out_loaded
     assert verdicts(out_calm) == verdicts(out_loaded)
     a, b = bag_messages(calm), bag_messages(loaded)

@@ -16,7 +16,7 @@ import pytest
 
 from fixtures.scenario_cli import run_scenario
 from test_scenarios import EX, bag_messages, verdicts
-from test_warm_farm import MESSY
+from test_warm_farm import MESSY, messy_text
 
 pytestmark = pytest.mark.rostest
 
@@ -39,8 +39,7 @@ rospy.spin()
 
 
 def test_embedded_world_records_what_the_world_node_records(tmp_path):
-    messy = tmp_path / 'messy.yaml'
-    messy.write_text(MESSY % {'ex': EX})
+    messy = MESSY
     rc_e, emb = run_scenario(messy, '--embedded', '--record', tmp_path / 'emb.bag')
     rc_c, cold = run_scenario(messy, '--world-node', '--record', tmp_path / 'cold.bag')
     assert rc_e == rc_c == 0, emb + cold
@@ -60,7 +59,7 @@ def test_an_embedded_run_without_other_publishers_looks_for_topics_only_when_tol
     when this process declared no publisher since the last look (no other process can
     have): fewer looks than with the sim_world node, and still the same recording, message
     by message, spawned head and late topics included."""
-    no_apps = re.sub(r'apps:\n(  - .*\n)+', '', MESSY % {'ex': EX}).replace(
+    no_apps = re.sub(r'apps:\n(  - .*\n)+', '', messy_text()).replace(
         'duration: 1.0', 'duration: 3.0')
     assert 'apps' not in no_apps and 'spawn_model' in no_apps
     sc = tmp_path / 'no_apps.yaml'

@@ -19,33 +19,18 @@ from test_scenarios import EX, bag_messages, verdicts
 
 pytestmark = pytest.mark.rostest
 
-MESSY = """\
-name: messy
-seed: 11
-duration: 1.0
-world: {args: {camera_rate: 1}}
-phones: [{ns: mobile_device, position: [4.0, -4.0, 1.2], rpy: [0, 0, 1.0]}]
-apps:
-  - {name: rotate_app, script: %(ex)s/rotate_app.py, params: {imu: /nowhere}}
-timeline:
-  - {at: 0.0, action: charger, plugged: true}
-  - {at: 0.0, action: radio, radio: wifi, enabled: false}
-  - {at: 0.1, action: set_environment, values: {magnetic_declination: 30,
-     indoor_temperature: 35}}
-  - {at: 0.1, action: fault, sensor: imu_controller, fault: noise, value: 5}
-  - {at: 0.2, action: spawn_model, name: head, file: %(ex)s/head.sdf,
-     position: [3.3, -2.11, 1.045]}
-  - {at: 0.2, action: delete_model, name: chair}
-  - {at: 0.3, action: set_model_state, model: mobile_device, position: [1, 1, 1]}
-  - {at: 0.3, action: publish, topic: /probe, type: std_msgs/String, msg: {data: hello}}
-expect:
-  - {name: imu, topic: /mobile_device/imu_sensor_data, rate: {gt: 50}}
-"""
+#: changes everything a scenario can change (shared with test_embedded and bench/load)
+MESSY = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data', 'messy.yaml')
+
+
+def messy_text():
+    """messy.yaml's text with absolute paths (for a changed copy written elsewhere)."""
+    with open(MESSY) as f:
+        return f.read().replace('../../testing_instance/examples', EX)
 
 
 def test_warm_world_gives_the_cold_recording(tmp_path):
-    messy = tmp_path / 'messy.yaml'
-    messy.write_text(MESSY % {'ex': EX})
+    messy = MESSY
     b = os.path.join(EX, 'auto_rotate.yaml')
     # one worker: messy, then auto_rotate in the same world
     rc, out = run_scenario('--jobs', '1', messy, b, '--record', tmp_path / 'warm',

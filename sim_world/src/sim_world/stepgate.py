@@ -26,7 +26,7 @@ message read from its socket, still being deserialised or waiting for the GIL, i
 queue (bench/load found the NFC example's OK recorded a slice late in 1 attached run of 6).
 An embedded world's runner checks the same threads itself, as its own: after a slice (the
 apps' answers) and, with :func:`settle`, before a step that follows its own actions'
-messages to the world (a charger plugged at sim time 0 landed a slice late under load).
+messages to the world (a radio switched off at sim time 0 landed a slice late under load).
 
 Messages this node publishes to itself (sim_world.fastpub's local deliveries: a world's
 /clock, the camera preview of the display, an embedded world's messages to the runner) do

@@ -39,9 +39,8 @@ rospy.spin()
 
 
 def test_embedded_world_records_what_the_world_node_records(tmp_path):
-    messy = MESSY
-    rc_e, emb = run_scenario(messy, '--embedded', '--record', tmp_path / 'emb.bag')
-    rc_c, cold = run_scenario(messy, '--world-node', '--record', tmp_path / 'cold.bag')
+    rc_e, emb = run_scenario(MESSY, '--embedded', '--record', tmp_path / 'emb.bag')
+    rc_c, cold = run_scenario(MESSY, '--world-node', '--record', tmp_path / 'cold.bag')
     assert rc_e == rc_c == 0, emb + cold
     assert verdicts(emb) == verdicts(cold) == {'imu': 'PASS'}
     assert re.search(r'^handshake: \d+ messages from the world, 0 dropped', emb, re.M), emb

@@ -30,10 +30,9 @@ def messy_text():
 
 
 def test_warm_world_gives_the_cold_recording(tmp_path):
-    messy = MESSY
     b = os.path.join(EX, 'auto_rotate.yaml')
     # one worker: messy, then auto_rotate in the same world
-    rc, out = run_scenario('--jobs', '1', messy, b, '--record', tmp_path / 'warm',
+    rc, out = run_scenario('--jobs', '1', MESSY, b, '--record', tmp_path / 'warm',
                            timeout=600)
     assert rc == 0, out
     assert re.search(r'\[messy.yaml\] scenario messy .*: PASS', out), out

@@ -162,31 +162,6 @@ def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(m
     assert a.inputs_sent
 
 
-def _busy_receiver(name):
-    """A receive thread named like rospy's (after its topic) that, for each message read
-    off its socket, works 0.3 s before it is handled: (socket to write to, handled list,
-    thread)."""
-    import socket
-    import threading
-    import time
-    a, b = socket.socketpair()
-    done = []
-
-    def receive():
-        while True:
-            data = a.recv(10)
-            if not data:
-                a.close()
-                return
-            t_end = time.monotonic() + 0.3
-            while time.monotonic() < t_end:         # deserialising, behind the GIL
-                pass
-            done.append(data)
-    th = threading.Thread(target=receive, name=name, daemon=True)
-    th.start()
-    return b, done, th
-
-
 @pytest.mark.parametrize('embedded', [True, False])
 def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(embedded):
     """An embedded world is this process: before a step that follows the actions' messages
@@ -196,8 +171,9 @@ def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(emb
     does not look. Without an action since the last step, no look."""
     import time
     from types import SimpleNamespace
+    from test_stepgate import busy_receiver
     from testing_instance.runner import Runner
-    sock, done, th = _busy_receiver('/mobile_device/wifi/enable')
+    sock, done, th = busy_receiver('/mobile_device/wifi/enable')
     seen = []
 
     def step_srv(**kw):

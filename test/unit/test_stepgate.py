@@ -166,26 +166,36 @@ def test_an_input_that_never_ends_delays_the_step_at_most_the_wait(caplog):
 
 
 @pytest.mark.skipif(stepgate._FUTEX is None, reason='futex syscall number unknown here')
+def busy_receiver(name):
+    """A receive thread like rospy's (recv, deserialise, callback), named after its topic,
+    that works 0.3 s on each message it reads off its socket before the message counts as
+    handled: (the socket to write to, the handled messages, the thread). Closing the socket
+    ends it."""
+    import socket
+    a, b = socket.socketpair()
+    done = []
+
+    def receive():
+        while True:
+            data = a.recv(10)
+            if not data:
+                a.close()
+                return
+            t_end = time.monotonic() + 0.3
+            while time.monotonic() < t_end:     # deserialising a big message
+                pass
+            done.append(data)
+    th = threading.Thread(target=receive, name=name, daemon=True)
+    th.start()
+    return b, done, th
+
+
 def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_gate():
     """The world as a node of its own: a receive thread that has read a message off its
     socket but not yet reached the gate (here: still working on it for 0.3 s) holds the
     step back, so the message lands before the step, not a slice later. An embedded world's
     step (not a request from a socket) does not look: its runner does."""
-    import socket
-    a, b = socket.socketpair()
-    done = []
-
-    def receive():                     # rospy's receive loop: recv, deserialise, callback
-        while True:
-            data = a.recv(10)
-            if not data:
-                return
-            t_end = time.monotonic() + 0.3
-            while time.monotonic() < t_end:     # deserialising a big message
-                pass
-            done.append(time.monotonic())
-    th = threading.Thread(target=receive, name='/app/answer', daemon=True)
-    th.start()
+    b, done, th = busy_receiver('/app/answer')
     try:
         time.sleep(0.05)
         assert stepgate.receivers_busy() == []                  # waiting for bytes: idle
@@ -209,7 +219,6 @@ def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_g
     finally:
         b.close()
         th.join(5)
-        a.close()
     assert not th.is_alive()
 
 

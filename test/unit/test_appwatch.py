@@ -272,6 +272,96 @@ def test_bytes_on_their_way_to_an_app_count_as_not_answered(spawn):
         assert w._busy(procs.TcpQueues({}, real.ends)) == []
 
 
+TCP_QUEUES = procs.tcp_queues      # (a test below puts a wrapper in its place)
+ECHO = ('import socket\ns = socket.create_connection(("127.0.0.1", %d))\n'
+        'while True:\n    b = s.recv(1)\n    if not b: break\n    s.sendall(b)')
+
+
+@contextlib.contextmanager
+def echo_app(spawn):
+    """(app, its connection's other end): the app sends back every byte it reads."""
+    srv = socket.socket()
+    srv.bind(('127.0.0.1', 0))
+    srv.listen(1)
+    p = spawn(ECHO % srv.getsockname()[1])
+    conn, _ = srv.accept()
+    try:
+        yield p, conn
+    finally:
+        conn.close()
+        srv.close()
+
+
+def asleep(p):
+    """Wait until no thread of the app runs (at most 2 s)."""
+    for _ in range(400):
+        if not any(s in ('R', 'D') for s in procs.thread_states(p.p.pid)):
+            return
+        time.sleep(0.005)
+    raise AssertionError('the app did not fall asleep')
+
+
+def poke(p, conn):
+    """The app answers one byte and is asleep again, its connection's queues empty (the
+    acknowledgement of its answer, which TCP may delay, is in)."""
+    conn.sendall(b'x')
+    assert conn.recv(1) == b'x'
+    mine = os.fstat(conn.fileno()).st_ino
+    for _ in range(400):
+        q = TCP_QUEUES()
+        if mine not in q and q.peer(mine) not in q:
+            break
+        time.sleep(0.005)
+    asleep(p)
+
+
+def test_thread_runs_change_only_when_a_thread_ran(spawn):
+    with echo_app(spawn) as (p, conn):
+        asleep(p)
+        a = procs.thread_runs(p.p.pid)
+        assert list(a) == [p.p.pid] and a[p.p.pid][0] == 'S', a
+        if a[p.p.pid][1] is None:
+            pytest.skip('no /proc/PID/task/TID/schedstat in this kernel')
+        time.sleep(0.05)
+        assert procs.thread_runs(p.p.pid) == a           # asleep: nothing changed
+        poke(p, conn)
+        b = procs.thread_runs(p.p.pid)
+        assert b[p.p.pid][0] == 'S' and b != a            # it ran, and sleeps again
+    assert procs.thread_runs(10 ** 7) == {}               # no such process
+
+
+def test_an_app_that_ran_after_the_queues_were_read_has_not_answered(spawn):
+    """A look reads the queues, then the threads. An app that took its input, wrote its
+    answer and went back to sleep in between looks idle with nothing queued; the threads'
+    schedstat says it ran since the look before, and it is looked at again."""
+    with echo_app(spawn) as (p, conn):
+        if procs.thread_runs(p.p.pid)[p.p.pid][1] is None:
+            pytest.skip('no /proc/PID/task/TID/schedstat in this kernel')
+        w = AppWatch([('/echo', p)], limit=5.0)
+        asleep(p)
+        w.wait(sleeper)                          # idle
+        assert w._busy(procs.tcp_queues()) == []
+        queues = procs.tcp_queues()              # the look's queues: nothing queued
+        poke(p, conn)                            # the app runs before its threads are read
+        assert w._busy(queues) == [('/echo', 'ran since the last look')]
+        assert w._busy(procs.tcp_queues()) == []
+        # wait(): the look that meets it is followed by another at once, without a wake
+        looks, wakes, real = [], [], procs.tcp_queues
+
+        def reading_then_poke():
+            q = real()
+            if not looks:
+                poke(p, conn)
+            looks.append(q)
+            return q
+        procs.tcp_queues = reading_then_poke
+        try:
+            w.wait(wakes.append)
+        finally:
+            procs.tcp_queues = real
+        assert len(looks) == 2 and wakes == [], (len(looks), wakes)
+
+
 @pytest.mark.skipif(procs._FUTEX is None, reason='futex syscall number unknown here')
 def test_receivers_busy_names_a_receive_thread_not_waiting_for_bytes():
     """A rospy receive thread (named after its topic) that has taken bytes off its socket

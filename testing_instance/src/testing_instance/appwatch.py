@@ -19,6 +19,16 @@ leaves no trace in any queue. The queues are read through netlink (procs.tcp_que
 fast enough that without that check the runner did look first: auto_rotate's landscape
 answer was recorded a slice late in 1 run of 8, and in none of 25 with it.
 
+A look is not one instant: the queues are read first, then each thread's state. An app can
+run in between (take the last bytes off its socket, write its answer, and be back asleep
+before its threads are read), and the look would then show an idle app with nothing queued
+while its answer is on its way, stamped a slice late (the QR app's answer in a warm farm, once
+in a fresh-clone CI run). So each look also reads every thread's schedstat (how often it got
+a CPU): an app is idle only when none of its threads has run since the look before, which
+was after that look's queues were read (a wait's first look: a reading just before its
+queues). One that ran is looked at again at once; idle then if it did nothing meanwhile
+(procs.thread_runs).
+
 The same readings tell a hung app: a connection of it has had unread bytes at every look
 for ``hang_after`` s of wall time, or every one of its threads is stopped (SIGSTOP). That is an error naming the app (``AppHung``). An app that never falls idle (it
 works by the wall clock, or floods) is waited for at most ``limit`` s per slice; after
@@ -38,6 +48,7 @@ import time
 
 from . import procs
 
+RAN = 'ran since the last look'
 TRACEBACK = b'Traceback (most recent call last):'
 NOT_FATAL = (b'bad callback', b'Exception in thread')
 
@@ -75,6 +86,7 @@ class AppWatch(object):
         self.log_pos = {}      # name -> bytes of its log already read
         self.log_tail = {}     # name -> its last lines read
         self.tree = procs.ProcessTree()
+        self.ran = {}          # name -> {(pid, tid): schedstat} at the last look
 
     def _traceback_seen(self, name, p):
         """Did the app's log (its stdout and stderr) get an uncaught exception's traceback
@@ -102,6 +114,19 @@ class AppWatch(object):
                 return True
         return False
 
+    @staticmethod
+    def _runs(pids):
+        return {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
+
+    def _mark(self):
+        """Read every app's threads before a wait's first look reads the queues: that look
+        compares its own reading with this one."""
+        kids = self.tree.children()
+        for name, p in self.apps:
+            if p.alive() and name not in self.ignored:
+                self.ran[name] = {k: r for k, (_st, r) in
+                                  self._runs(procs.descendants(p.p.pid, kids)).items()}
+
     def _busy(self, queues):
         """[(name, why)] of the apps still working (not those given up on); raises
         AppHung for any app, given up on or not."""
@@ -120,7 +145,10 @@ class AppWatch(object):
                 del self.exiting[name]        # it lives on: the traceback was not fatal
                 self.survived.add(name)
             pids = procs.descendants(p.p.pid, kids)
-            states = [s for pid in pids for s in procs.thread_states(pid)]
+            runs = self._runs(pids)
+            states = [st for st, _ran in runs.values()]
+            ran = {k: r for k, (_st, r) in runs.items()}
+            ran_before, self.ran[name] = self.ran.get(name), ran
             inodes = set()
             for pid in pids:
                 inodes |= procs.socket_inodes(pid)
@@ -159,6 +187,11 @@ class AppWatch(object):
                 out.append((name, '%d bytes queued' % (tx + rx)))
             elif stopped:
                 out.append((name, 'stopped'))
+            elif ran != ran_before:
+                # it ran since the last look, which may have been after ``queues`` was read:
+                # what it did then (an answer written, a thread woken and back to sleep
+                # before its state was read) is not in this look
+                out.append((name, RAN))
         return out
 
     def wait(self, wake):
@@ -167,6 +200,8 @@ class AppWatch(object):
         if not self.apps:
             return
         t0 = self.clock()
+        relooked = False
+        self._mark()
         while True:
             queues = procs.tcp_queues()
             busy = self._busy(queues)
@@ -175,6 +210,10 @@ class AppWatch(object):
                 for name, _p in self.apps:
                     self.misses.pop(name, None)
                 break
+            if busy and all(w == RAN for _n, w in busy) and not relooked:
+                relooked = True               # look again at once: idle if it did nothing
+                continue
+            relooked = False
             dying_only = busy and all(w == 'exiting' for _n, w in busy)
             if self.clock() - t0 >= self.limit and not dying_only:
                 for name, why in busy:

@@ -15,7 +15,8 @@ from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exporte
 __all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'launch_env', 'stop_run', 'age', 'alive',
            'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
            'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
-           'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_states', 'world_node']
+           'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_runs', 'thread_states',
+           'world_node']
 
 
 def poll(cond, deadline, first=0.001, most=0.02):
@@ -510,6 +511,33 @@ def thread_states(pid):
                 out.append(f.read().rsplit(b')', 1)[1].split()[0].decode())
         except (OSError, IndexError):
             pass
+    return out
+
+
+def thread_runs(pid):
+    """{thread id: (state letter, schedstat)} of every thread of pid ({} when it is gone).
+    schedstat is /proc/PID/task/TID/schedstat: the thread's time on a CPU, its time waiting
+    for one, and how many times it got one (None where the kernel keeps no such figures). It
+    changes whenever the thread has run: two looks with the same schedstat for every thread,
+    all of them sleeping, mean the process did nothing in between."""
+    out = {}
+    try:
+        tids = os.listdir('/proc/%d/task' % pid)
+    except OSError:
+        return out
+    for tid in tids:
+        base = '/proc/%d/task/%s/' % (pid, tid)
+        try:
+            with open(base + 'stat', 'rb') as f:
+                state = f.read().rsplit(b')', 1)[1].split()[0].decode()
+        except (OSError, IndexError):
+            continue                                  # it ended just now
+        try:
+            with open(base + 'schedstat', 'rb') as f:
+                ran = f.read()
+        except OSError:
+            ran = None
+        out[int(tid)] = (state, ran)
     return out
 
 

@@ -362,6 +362,28 @@ def test_an_app_that_ran_after_the_queues_were_read_has_not_answered(spawn):
         assert len(looks) == 2 and wakes == [], (len(looks), wakes)
 
 
+def test_a_world_node_that_ran_after_the_queues_were_read_holds_the_apps(spawn):
+    """``others``: a world node of its own (here the echo process) is held to the apps'
+    rule once the apps are idle: running, or run since the look before, it is waited for."""
+    idle = spawn('import time; time.sleep(60)')
+    with echo_app(spawn) as (node, conn):
+        if procs.thread_runs(node.p.pid)[node.p.pid][1] is None:
+            pytest.skip('no /proc/PID/task/TID/schedstat in this kernel')
+        w = AppWatch([('/idle', idle)], limit=5.0,
+                     others=lambda: [('the world node', node.p.pid)])
+        asleep(node)
+        w.wait(sleeper)
+        assert w._others_busy() == []
+        poke(node, conn)
+        assert w._others_busy() == [('the world node', 'ran since the last look')]
+        assert w._others_busy() == []
+        spin = spawn('while True: pass')
+        w2 = AppWatch([('/idle', idle)], limit=0.2, give_up=5,
+                      others=lambda: [('the world node', spin.p.pid)])
+        assert waited(w2) >= 0.2 and w2.misses == {'the world node': 1}
+        assert w2._others_busy() == [('the world node', 'handling an input')]
+
+
 @pytest.mark.skipif(procs._FUTEX is None, reason='futex syscall number unknown here')
 def test_receivers_busy_names_a_receive_thread_not_waiting_for_bytes():
     """A rospy receive thread (named after its topic) that has taken bytes off its socket

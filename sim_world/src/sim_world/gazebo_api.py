@@ -369,7 +369,10 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
             if now >= next_pub:
                 api.publish()
                 next_pub = now + max(pub_period, 0.1)
-            api.reset_anchor.wait(0.01)     # step_world / unpause wake it at once
+            # step_world, unpause and a reload wake it at once; otherwise it sleeps until the
+            # next paused publish (no 10 ms ticks: the app watch counts a world node's thread
+            # that ran between two looks as busy)
+            api.reset_anchor.wait(min(0.1, max(0.0, next_pub - mono())))
             wall0, sim0 = mono(), world.sim_time
             continue
         stop = api.step_until

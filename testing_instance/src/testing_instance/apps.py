@@ -66,10 +66,11 @@ class Apps(object):
     def _log(self, name):
         return os.path.join(self.run_dir, '%s.log' % name.lstrip('/'))
 
-    def launch(self, own_pending):
+    def launch(self, own_pending, others=lambda: ()):
         """Start every app (once), on the run's master, which answers now: the prestarted
         ones go on, the others (``node:``) start. own_pending(queues): why this process
-        still holds app messages not yet delivered (AppWatch). Returns the Procs."""
+        still holds app messages not yet delivered; others(): [(name, pid)] of processes
+        whose threads must be idle too (AppWatch). Returns the Procs."""
         if self.watch is not None or not self.sc.apps:
             return []
         self.prestart()
@@ -84,7 +85,7 @@ class Apps(object):
                 p = Proc(cmd, self.env(), self._log(name), cwd=self.sc.dir)
             procs.append((name, p))
         self.procs = procs
-        self.watch = AppWatch(self.procs, own_pending, warn=self.say)
+        self.watch = AppWatch(self.procs, own_pending, warn=self.say, others=others)
         return [p for _n, p in self.procs]
 
     def await_ready(self):

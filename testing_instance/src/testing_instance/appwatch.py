@@ -65,11 +65,14 @@ class AppHung(Exception):
 
 class AppWatch(object):
     def __init__(self, apps, own_pending=lambda queues: None, hang_after=10.0, limit=2.0, give_up=3,
-                 warn=print, clock=time.monotonic, exit_wait=10.0):
+                 warn=print, clock=time.monotonic, exit_wait=10.0, others=lambda: ()):
         """apps: [(name, Proc)]; own_pending(queues): a reason string while the runner
         itself still holds undelivered app messages, else None (queues: the same
-        procs.tcp_queues() snapshot the apps were judged by)."""
+        procs.tcp_queues() snapshot the apps were judged by); others(): [(name, pid)] of
+        other processes held to the same rule about their threads (a world node of its
+        own, which hands an app's message on to another app)."""
         self.apps = list(apps)
+        self.others = others
         self.own_pending = own_pending
         self.hang_after = float(hang_after)
         self.limit = float(limit)
@@ -119,13 +122,32 @@ class AppWatch(object):
         return {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
 
     def _mark(self):
-        """Read every app's threads before a wait's first look reads the queues: that look
-        compares its own reading with this one."""
+        """Read every app's threads (and the others') before a wait's first look reads the
+        queues: that look compares its own reading with this one."""
         kids = self.tree.children()
         for name, p in self.apps:
             if p.alive() and name not in self.ignored:
                 self.ran[name] = {k: r for k, (_st, r) in
                                   self._runs(procs.descendants(p.p.pid, kids)).items()}
+        for name, pid in self.others():
+            self.ran[name] = {k: r for k, (_st, r) in self._runs([pid]).items()}
+
+    def _others_busy(self):
+        """[(name, why)] of the other processes running, waiting in the kernel, or that
+        ran since the last reading."""
+        out = []
+        for name, pid in self.others():
+            if name in self.ignored:
+                continue
+            runs = self._runs([pid])
+            ran = {k: r for k, (_st, r) in runs.items()}
+            ran_before, self.ran[name] = self.ran.get(name), ran
+            states = [st for st, _r in runs.values()]
+            if any(st in ('R', 'D') for st in states):
+                out.append((name, 'handling an input'))
+            elif ran != ran_before:
+                out.append((name, RAN))
+        return out
 
     def _busy(self, queues):
         """[(name, why)] of the apps still working (not those given up on); raises
@@ -205,6 +227,8 @@ class AppWatch(object):
         while True:
             queues = procs.tcp_queues()
             busy = self._busy(queues)
+            if not busy:
+                busy = self._others_busy()
             own = self.own_pending(queues) if not busy else None
             if not busy and own is None:
                 for name, _p in self.apps:

@@ -155,7 +155,7 @@ class Runner(Actions):
             raise RunError(str(e))
 
     def start_apps(self):
-        self.apps.launch(self._own_pending)
+        self.apps.launch(self._own_pending, self._world_nodes)
         self.apps.await_ready()
 
     def start_at(self, t0):
@@ -378,6 +378,17 @@ class Runner(Actions):
                            % (HANDSHAKE_WATCHDOG, self.t, _counts_line(missing)))
         self._answered(w0)
 
+    def _world_nodes(self):
+        """[(name, pid)] of a world node of its own, for the app watch: one handling an input
+        (in its callback, or publishing what the input caused to an app) means an app that
+        looks idle now has more coming (bench/load: the NFC example's OK, handled as the step
+        answer went out, reached phone A during the next step, a slice late, in 2 attached
+        runs of 8; with the node's threads read one by one, once in a warm farm under load
+        after that). Held to the apps' rule: none of its threads ran since a reading taken
+        before the look's queues."""
+        return [('the world node (pid %d)' % pid, pid) for pid in self.world.world_pids()
+                if pid != os.getpid()]
+
     def _own_pending(self, q):
         """Why the runner (or the world) still holds app messages not yet delivered, or
         None: a subscription deserialised more than reached the inbox, or bytes wait on a
@@ -389,12 +400,6 @@ class Runner(Actions):
         for pid in self.world.world_pids():
             if any(q.get(i, (0, 0))[1] for i in procs.socket_inodes(pid)):
                 return 'bytes waiting on a socket of pid %d' % pid
-            # a world node of its own handling an input (in its callback, or publishing what
-            # the input caused to an app): an app that looks idle now has more coming
-            # (bench/load: the NFC example's OK, handled as the step answer went out, reached
-            # phone A during the next step, a slice late, in 2 attached runs of 8)
-            if pid != os.getpid() and any(st in ('R', 'D') for st in procs.thread_states(pid)):
-                return 'the world node (pid %d) is handling an input' % pid
         # a message off its socket, not yet through its callbacks: a receive thread of this
         # process (the runner's subscriptions; an embedded world's too) behind the GIL
         busy = procs.receivers_busy()
@@ -509,7 +514,7 @@ class Runner(Actions):
             self.world.proc = self.warm.launch
             self._phase('warm world')
         # the apps go on once the master answers; start_apps waits for them
-        self.apps.launch(self._own_pending)
+        self.apps.launch(self._own_pending, self._world_nodes)
         self.init_ros()
         self._phase('node' if not self.world.embedded else 'node and world')
         if self.attach:

@@ -1,22 +1,13 @@
 """bench/flaky's reading of JUnit files and its tally, and the seeded test order it runs the
 suite in (test/fixtures/shuffle.py)."""
-import importlib.machinery
-import importlib.util
-import os
 from types import SimpleNamespace
 
 from fixtures import shuffle
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from fixtures.bench_module import load_bench
 
 
 def _bench():
-    path = os.path.join(ROOT, 'bench', 'flaky')
-    loader = importlib.machinery.SourceFileLoader('bench_flaky', path)
-    spec = importlib.util.spec_from_loader('bench_flaky', loader)
-    mod = importlib.util.module_from_spec(spec)
-    loader.exec_module(mod)
-    return mod
+    return load_bench('flaky')
 
 
 JUNIT = '''<?xml version="1.0" encoding="utf-8"?>

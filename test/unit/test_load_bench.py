@@ -1,18 +1,9 @@
 """bench/load's comparison of two recordings: the first topic that differs, and how many."""
-import importlib.machinery
-import importlib.util
-import os
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from fixtures.bench_module import load_bench
 
 
 def _bench():
-    path = os.path.join(ROOT, 'bench', 'load')
-    loader = importlib.machinery.SourceFileLoader('bench_load', path)
-    spec = importlib.util.spec_from_loader('bench_load', loader)
-    mod = importlib.util.module_from_spec(spec)
-    loader.exec_module(mod)
-    return mod
+    return load_bench('load')
 
 
 REF = {'/a': [(1, b'x')], '/b': [(2, b'y')], '/c': [(3, b'z'), (4, b'w')]}

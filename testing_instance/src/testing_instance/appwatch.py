@@ -118,8 +118,10 @@ class AppWatch(object):
         return False
 
     @staticmethod
-    def _runs(pids):
-        return {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
+    def _read(pids):
+        """(state letters, {(pid, tid): schedstat}) of every thread of ``pids``."""
+        runs = {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
+        return [st for st, _ran in runs.values()], {k: ran for k, (_st, ran) in runs.items()}
 
     def _mark(self):
         """Read every app's threads (and the others') before a wait's first look reads the
@@ -127,10 +129,9 @@ class AppWatch(object):
         kids = self.tree.children()
         for name, p in self.apps:
             if p.alive() and name not in self.ignored:
-                self.ran[name] = {k: r for k, (_st, r) in
-                                  self._runs(procs.descendants(p.p.pid, kids)).items()}
+                self.ran[name] = self._read(procs.descendants(p.p.pid, kids))[1]
         for name, pid in self.others():
-            self.ran[name] = {k: r for k, (_st, r) in self._runs([pid]).items()}
+            self.ran[name] = self._read([pid])[1]
 
     def _others_busy(self):
         """[(name, why)] of the other processes running, waiting in the kernel, or that
@@ -139,10 +140,8 @@ class AppWatch(object):
         for name, pid in self.others():
             if name in self.ignored:
                 continue
-            runs = self._runs([pid])
-            ran = {k: r for k, (_st, r) in runs.items()}
+            states, ran = self._read([pid])
             ran_before, self.ran[name] = self.ran.get(name), ran
-            states = [st for st, _r in runs.values()]
             if any(st in ('R', 'D') for st in states):
                 out.append((name, 'handling an input'))
             elif ran != ran_before:
@@ -167,9 +166,7 @@ class AppWatch(object):
                 del self.exiting[name]        # it lives on: the traceback was not fatal
                 self.survived.add(name)
             pids = procs.descendants(p.p.pid, kids)
-            runs = self._runs(pids)
-            states = [st for st, _ran in runs.values()]
-            ran = {k: r for k, (_st, r) in runs.items()}
+            states, ran = self._read(pids)
             ran_before, self.ran[name] = self.ran.get(name), ran
             inodes = set()
             for pid in pids:

@@ -500,18 +500,7 @@ def alive(pid):
 
 def thread_states(pid):
     """The state letters of every thread of pid ([] when it is gone)."""
-    out = []
-    try:
-        tids = os.listdir('/proc/%d/task' % pid)
-    except OSError:
-        return out
-    for tid in tids:
-        try:
-            with open('/proc/%d/task/%s/stat' % (pid, tid), 'rb') as f:
-                out.append(f.read().rsplit(b')', 1)[1].split()[0].decode())
-        except (OSError, IndexError):
-            pass
-    return out
+    return [st for st, _ran in thread_runs(pid).values()]
 
 
 def thread_runs(pid):

@@ -95,6 +95,50 @@ def test_held_messages_are_timed_by_the_step_answer_and_the_apps_by_the_slice_en
     assert [t for t, _s, _tp, _m in it.inbox.take()] == [0.75]
 
 
+def test_a_world_message_sent_while_paused_is_timed_at_the_slice_end_not_by_the_clock():
+    """The NFC proxy's delivery of an app's answer goes out while the world is paused at
+    the slice's end, after the step answer: it can arrive before any answer lists it. It is
+    timed at the slice's end, not by the runner's clock (which lags the world's under load:
+    bench/load saw 1.05 s for 1.10 s), and the next answer's time for it is not used again
+    for the topic's next message (which used to take the stale 1.10)."""
+    Answer = collections.namedtuple('Answer', 'timed_topics timed_counts times')
+    it = _intake(now=1.05)          # the runner's /clock lags
+    it.hold_unstamped, it.input_node = True, '/sim_world'
+    it.subs = {'/nfc/incoming': object()}
+    it.on_message(_from(String('OK'), '/sim_world'), '/nfc/incoming')
+    it.stamp_held(1.1)
+    assert [(t, m.data) for t, _s, _tp, m in it.inbox.take()] == [(1.1, 'OK')]
+    # the next step's answer lists it first, then one published in that step at 1.12
+    it.note_times(Answer(['/nfc/incoming'], [2], [1.1, 1.12]))
+    it.on_message(_from(String('again'), '/sim_world'), '/nfc/incoming')
+    it.stamp_held(1.15)
+    assert [(t, m.data) for t, _s, _tp, m in it.inbox.take()] == [(1.12, 'again')]
+    assert it.mislisted == [] and not it.unlisted['/nfc/incoming']
+
+
+def test_a_time_given_on_arrival_that_the_world_lists_otherwise_is_said():
+    said = []
+    Answer = collections.namedtuple('Answer', 'timed_topics timed_counts times')
+    it = _intake(now=0.0)
+    it.say = said.append
+    it.hold_unstamped, it.input_node = True, '/sim_world'
+    it.subs = {'/led': object()}
+    it.on_message(_from(String('red'), '/sim_world'), '/led')
+    it.stamp_held(0.5)
+    it.note_times(Answer(['/led'], [1], [0.45]))
+    assert it.mislisted == [('/led', 0.5, 0.45)]
+    assert said and '/led' in said[0] and '0.450' in said[0]
+
+
+def test_a_replays_input_it_did_not_time_keeps_its_arrival():
+    it = _intake(now=0.7)
+    it.hold_unstamped, it.input_node = True, '/runner'      # a replay: this node
+    it.subs = {'/led': object()}
+    it.on_message(_from(String('red'), '/runner'), '/led')
+    it.stamp_held(1.0)
+    assert [t for t, _s, _tp, _m in it.inbox.take()] == [0.7] and it.unlisted == {}
+
+
 def test_embedded_the_worlds_messages_have_no_header_and_the_nodes_own_do():
     """An embedded world hands its messages over as objects (no connection header): they
     are the world's. A message of this node's own action publisher is not."""

@@ -122,6 +122,29 @@ def test_an_app_that_reads_is_not_hung(spawn):
         assert not w.misses
 
 
+def test_while_an_app_runs_the_queues_are_read_only_now_and_then(spawn, monkeypatch):
+    """A look begins with the app's threads; while one runs, the machine's TCP queues (the
+    costly part) are read every full_every s, not every 2 ms."""
+    reads = []
+    real = procs.tcp_queues
+    monkeypatch.setattr(procs, 'tcp_queues', lambda: reads.append(1) or real())
+    w = AppWatch([('/spin', spawn('while True: pass'))], limit=0.5, full_every=0.1)
+    assert waited(w) >= 0.5 and w.misses == {'/spin': 1}
+    assert 3 <= len(reads) <= 10           # about 0.5 / 0.1, and one at the limit
+    reads.clear()
+    w2 = AppWatch([('/spin', w.apps[0][1])], limit=0.5, full_every=0.0)   # every look
+    waited(w2)
+    assert len(reads) > 20
+
+
+def test_a_running_app_that_never_reads_its_connection_is_still_found_hung(spawn):
+    with sent_5000_bytes(spawn, 'import socket, time; s = socket.create_connection('
+                                '("127.0.0.1", %d))\nwhile True: pass') as p:   # spins, deaf
+        w = AppWatch([('/deaf', p)], hang_after=0.4, limit=5.0, full_every=0.1)
+        with pytest.raises(AppHung, match=r'app /deaf hangs'):
+            w.wait(sleeper)
+
+
 VFORK_WAIT = r"""
 #include <unistd.h>
 int main(void) { if (vfork() == 0) { sleep(2); _exit(0); } return 0; }

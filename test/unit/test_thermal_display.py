@@ -90,3 +90,23 @@ def test_back_turns_red_when_heated_seen_from_below(phone):
     w.step(15000)                                           # 5 tau
     after = r.render(view)[v - 2:v + 3, u - 2:u + 3].reshape(-1, 3).astype(int)
     assert np.all(after[:, 0] > 230) and np.all(after[:, 1:] < 30), after
+
+
+def test_a_steady_colour_is_not_painted_again_and_a_change_is(phone, monkeypatch):
+    """Painting waits for the renderer's frame in hand: at a steady temperature the thermal
+    display's ticks leave the renderer alone; a command paints again, and so does a new
+    renderer."""
+    w, th = phone
+    r = w.renderer
+    calls = []
+    real = r.set_link_color
+    monkeypatch.setattr(r, 'set_link_color', lambda *a, **k: calls.append(a[2]) or real(*a, **k))
+    w.step(1000)                                            # 1 s at neutral: 10 ticks
+    assert calls == []
+    th.command(45.0)
+    w.step(1000)
+    # warming: a new colour at every tick but the command's own (its step is the old target)
+    assert len(calls) == 9 and len(set(calls)) == 9 and calls[-1][0] > calls[0][0]
+    th._painted = (lambda: object(), th._painted[1])        # as if another renderer drew
+    th.paint_link(th.color())
+    assert len(calls) == 10

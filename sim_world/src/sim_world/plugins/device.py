@@ -17,6 +17,7 @@ declared ``on_change`` (with ``repeat`` s) publishes only when the message's con
 but its header) differs from the last one it published, or ``repeat`` s of sim time later.
 """
 import threading
+import weakref
 
 import numpy as np
 
@@ -320,11 +321,23 @@ class Device(Plugin):
 
     def paint_link(self, rgb):
         """Draw the body link unlit in ``rgb`` (0..1; None: its own material) in every
-        camera (an LED, the thermal display); a link without a visual: nothing to draw."""
+        camera (an LED, the thermal display); a link without a visual: nothing to draw.
+        The colour the renderer already has is not drawn again: a change waits until the
+        renderer has finished the frame it is drawing (Renderer.set_link_color), and the
+        thermal display at a steady temperature painted the same colour at each of its
+        ticks, holding the world's step for a frame ten times a sim second."""
+        r = self.world.renderer_if_created
+        if r is None:
+            return
+        key = None if rgb is None else tuple(float(v) for v in rgb)
+        last = getattr(self, '_painted', None)
+        if last is not None and last[0]() is r and last[1] == key:
+            return
         try:
-            self.paint(lambda r: r.set_link_color(self.model.name, self.body, rgb, lit=False))
+            r.set_link_color(self.model.name, self.body, rgb, lit=False)
         except KeyError:
-            pass
+            return
+        self._painted = (weakref.ref(r), key)
 
     # -- state -------------------------------------------------------------------------------------
     def state(self, t=None):

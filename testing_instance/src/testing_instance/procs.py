@@ -604,10 +604,13 @@ def tcp_queues():
     """{socket inode: (bytes queued to send, bytes received and not yet read)} for every
     established TCP socket of this network namespace with bytes in a queue (absent: none),
     as a :class:`TcpQueues` (which also knows each connection's other end).
-    The appwatch reads this many times a slice. Asked through the kernel's sock_diag
-    netlink interface (what ``ss`` uses), with only ESTABLISHED sockets dumped: 0.17 ms
-    here. /proc/net/tcp (the fallback where netlink is refused) formats every socket,
-    the hundreds in TIME_WAIT that XML-RPC calls leave too: 1.4 ms. IPv6 sockets are asked
+    Asked through the kernel's sock_diag netlink interface (what ``ss`` uses), with only
+    ESTABLISHED sockets dumped: 0.17 ms on one machine, 1.07 ms on another (kernel 6.18)
+    even with no socket at all, as the dump walks every bucket of the established hash
+    (262,144 there; ``dmesg``: "TCP established hash table entries"). So the app watch
+    reads it once a look only when no app is running (appwatch.AppWatch.full_every).
+    /proc/net/tcp (the fallback where netlink is refused) formats every socket, the
+    hundreds in TIME_WAIT that XML-RPC calls leave too: 1.4 ms. IPv6 sockets are asked
     only when ROS uses IPv6 (ROS_IPV6=on; otherwise rospy and roscpp connect over IPv4)."""
     families = (socket.AF_INET, socket.AF_INET6) if os.environ.get('ROS_IPV6') == 'on' \
         else (socket.AF_INET,)

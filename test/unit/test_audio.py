@@ -173,3 +173,46 @@ def test_mp3_of_the_thesis_snippet(tmp_path, world):
     assert _peak_hz(x[:8000]) == pytest.approx(440, abs=3)
     assert _rms(x[1000:7000]) == pytest.approx(0.4 / np.sqrt(2), rel=0.1)
     assert _rms(x[9000:]) < 1e-3                    # played once: silent after 0.5 s
+
+
+def _track_at_whole(track, t):
+    """_Track.at as it was: np.interp over the whole 12 s track (the reference)."""
+    ts, ps = np.asarray(track.t), np.asarray(track.p)
+    out = np.empty((len(t), 3))
+    for k in range(3):
+        out[:, k] = np.interp(t, ts, ps[:, k])
+        lo, hi = t < ts[0], t > ts[-1]
+        if lo.any():
+            out[lo, k] = ps[0, k] + (ps[1, k] - ps[0, k]) / (ts[1] - ts[0]) * (t[lo] - ts[0])
+        if hi.any():
+            out[hi, k] = ps[-1, k] + (ps[-1, k] - ps[-2, k]) / (ts[-1] - ts[-2]) * (
+                t[hi] - ts[-1])
+    return out
+
+
+def test_a_track_asked_for_a_chunk_gives_what_the_whole_track_gives_bit_for_bit():
+    """_Track.at interpolates from the samples around the asked times only (a chunk spans
+    a tick, the track 12 s): the same values, bit for bit, inside, on the samples, and
+    extrapolated before the first and after the last."""
+    from simsensors.audio import _Track
+    rng = np.random.default_rng(3)
+    tr = _Track()
+    t = 0.0
+    for _ in range(1500):                     # 15 s at 100 Hz: the track keeps 12 of them
+        tr.add(t, rng.normal(size=3))
+        t += 0.01
+    assert len(tr.t) < 1500
+    first, last = tr.t[0], tr.t[-1]
+    chunks = [np.linspace(last - 0.01, last, 7),            # the tick just past
+              np.linspace(last - 0.3, last - 0.29, 5),      # emitted 100 m away
+              np.array(tr.t[500:503]),                       # on the samples
+              np.linspace(last - 0.005, last + 0.02, 9),    # beyond the last sample
+              np.linspace(first - 0.05, first + 0.015, 6),  # before the first
+              np.linspace(first - 1, last + 1, 50)]         # all of it and more
+    for c in chunks:
+        assert np.array_equal(tr.at(c), _track_at_whole(tr, c)), c
+    two = _Track()
+    two.add(0.0, (0, 0, 0))
+    two.add(1.0, (1, 2, 3))
+    for c in (np.array([-0.5, 0.5, 1.5]), np.array([2.0]), np.array([-1.0])):
+        assert np.array_equal(two.at(c), _track_at_whole(two, c)), c

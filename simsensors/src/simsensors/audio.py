@@ -30,6 +30,7 @@ source on ``bodyName``. Plays a sound file (``soundFile``, aliases ``mp3``/``wav
 Bad input (unreadable/undecodable file, negative gain, a bad AudioData): one error line
 naming it; the source keeps what it played before; the world keeps running.
 """
+import bisect
 import math
 import threading
 
@@ -168,8 +169,19 @@ class _Track(object):
             return np.zeros((len(t), 3))
         if len(self.t) == 1:
             return np.tile(self.p[0], (len(t), 1))
-        ts = np.asarray(self.t)
-        ps = np.asarray(self.p)
+        # only the samples around the asked times (a chunk spans one tick, the track 12 s:
+        # converting all of it to arrays at every call was 5 % of a sensors world's step);
+        # the same segments, so the same values, as with the whole track
+        n = len(self.t)
+        t = np.asarray(t, float)
+        i0 = max(0, bisect.bisect_right(self.t, float(t.min())) - 1)
+        i1 = min(n, bisect.bisect_left(self.t, float(t.max())) + 1)
+        if i0 == 0 or i1 - i0 < 2:
+            i1 = max(i1, min(n, 2))           # the first segment (extrapolating below)
+        if i1 == n or i1 - i0 < 2:
+            i0 = min(i0, n - 2)               # the last segment (extrapolating above)
+        ts = np.asarray(self.t[i0:i1])
+        ps = np.asarray(self.p[i0:i1])
         # linear, extrapolated at the ends with the last segment's velocity
         out = np.empty((len(t), 3))
         for k in range(3):

@@ -130,6 +130,15 @@ def test_a_time_given_on_arrival_that_the_world_lists_otherwise_is_said():
     assert said and '/led' in said[0] and '0.450' in said[0]
 
 
+def test_a_world_topic_the_world_does_not_count_keeps_the_arrival_time():
+    it = _intake(now=0.7)
+    it.hold_unstamped, it.input_node = True, '/sim_world'
+    it.subs, it.uncounted = {'/other': object()}, {'/other'}
+    it.on_message(_from(String('x'), '/sim_world'), '/other')
+    it.stamp_held(1.0)
+    assert [t for t, _s, _tp, _m in it.inbox.take()] == [0.7] and it.unlisted == {}
+
+
 def test_a_replays_input_it_did_not_time_keeps_its_arrival():
     it = _intake(now=0.7)
     it.hold_unstamped, it.input_node = True, '/runner'      # a replay: this node

@@ -284,13 +284,15 @@ class Intake(object):
         replay) the sim time it went out at, in order per topic; an app's the end of the
         slice. A live world's message that no answer has listed yet went out while the world
         was paused at ``t_end``, after its last answer (module doc): ``t_end``, and the next
-        answer's time for it is dropped. A replay's that it did not time: its arrival."""
+        answer's time for it is dropped. A replay's that it did not time, or one on a topic
+        whose publishers the world does not count (and so does not time): its arrival."""
         if tag is None:
             return t_end
         q = self.input_times.get(topic)
         if q:
             return q.popleft()
-        if self.input_node is not None and self.input_node == self.world_node:
+        if self.input_node is not None and self.input_node == self.world_node and \
+                topic not in self.uncounted:
             self.unlisted.setdefault(topic, collections.deque()).append(t_end)
             return t_end
         return tag

@@ -49,6 +49,7 @@ import time
 from . import procs
 
 RAN = 'ran since the last look'
+HANDLING = 'handling an input'     # another process (a world node) at work
 TRACEBACK = b'Traceback (most recent call last):'
 NOT_FATAL = (b'bad callback', b'Exception in thread')
 
@@ -130,6 +131,16 @@ class AppWatch(object):
         runs = {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
         return [st for st, _ran in runs.values()], {k: ran for k, (_st, ran) in runs.items()}
 
+    @staticmethod
+    def _working(states):
+        """Why threads in these states are at work now (a thread running, or waiting in
+        the kernel), or None."""
+        if 'R' in states:
+            return 'running'
+        if 'D' in states:
+            return 'waiting in the kernel (a thread in state D)'
+        return None
+
     def _mark(self):
         """Read every app's threads (and the others') before a look reads the queues: that
         look compares its own reading with this one. Returns [(name, why)] of those with a
@@ -139,14 +150,13 @@ class AppWatch(object):
         for name, p in self.apps:
             if p.alive() and name not in self.ignored:
                 states, self.ran[name] = self._read(procs.descendants(p.p.pid, kids))
-                if any(s == 'R' for s in states):
-                    out.append((name, 'running'))
-                elif any(s == 'D' for s in states):
-                    out.append((name, 'waiting in the kernel (a thread in state D)'))
+                why = self._working(states)
+                if why:
+                    out.append((name, why))
         for name, pid in self.others():
             states, self.ran[name] = self._read([pid])
-            if name not in self.ignored and any(st in ('R', 'D') for st in states):
-                out.append((name, 'handling an input'))
+            if name not in self.ignored and self._working(states):
+                out.append((name, HANDLING))
         return out
 
     def _others_busy(self):
@@ -158,8 +168,8 @@ class AppWatch(object):
                 continue
             states, ran = self._read([pid])
             ran_before, self.ran[name] = self.ran.get(name), ran
-            if any(st in ('R', 'D') for st in states):
-                out.append((name, 'handling an input'))
+            if self._working(states):
+                out.append((name, HANDLING))
             elif ran != ran_before:
                 out.append((name, RAN))
         return out
@@ -214,10 +224,9 @@ class AppWatch(object):
                         % (name, queues.get(key, (0, rx))[1], now - seen[key])))
             if name in self.ignored:
                 continue
-            if any(s == 'R' for s in states):
-                out.append((name, 'running'))
-            elif any(s == 'D' for s in states):
-                out.append((name, 'waiting in the kernel (a thread in state D)'))
+            why = self._working(states)
+            if why:
+                out.append((name, why))
             elif tx or rx:
                 out.append((name, '%d bytes queued' % (tx + rx)))
             elif stopped:

@@ -293,6 +293,27 @@ def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
     p._pubs = {}
 
 
+def test_a_subscriber_in_this_world_not_connected_yet_makes_the_renderer_ahead(monkeypatch):
+    """The phone's display subscribes to its camera in the world's own node; rospy connects
+    it a few hundred ms later, after a scenario's first step. will_draw counts it already,
+    so the renderer is made in the start-up, not in the timeline's first slice; the frames
+    themselves still wait for the connection (wanted)."""
+    from sim_world import fastpub
+    p, world = _load(_variant(imageSize='32 24'))
+    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    here = set()
+    monkeypatch.setattr(fastpub, 'subscribed_here', lambda topic: topic in here)
+    assert not p.will_draw()                                  # nobody anywhere
+    here.add(p.info_topic)
+    assert not p.will_draw()                                  # camera_info needs no frame
+    here.add(p.image_topic)
+    assert p.will_draw() and p.wanted() == (False, False)     # ahead; no frame yet
+    here.clear()
+    here.add(p.points_topic)
+    assert p.will_draw()
+    p._pubs = {}
+
+
 def test_camera_info_alone_is_published_at_every_tick_without_a_frame():
     p, world = _load(_variant(imageSize='32 24'))
     stamps = iter(range(100))

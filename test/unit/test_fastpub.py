@@ -511,3 +511,20 @@ def test_hold_keeps_messages_for_others_until_the_next_release(monkeypatch):
         for a, b in pairs:
             a.close()
             b.close()
+
+
+def test_subscribed_here_sees_a_subscriber_of_this_node_before_it_is_connected(monkeypatch):
+    """A node's subscriber of its own topic connects through the master, some hundred ms
+    after it was made; subscribed_here answers from rospy's topic manager at once (a live
+    implementation: yes; a closed one or none: no)."""
+    from types import SimpleNamespace
+    from rospy.impl import registration
+    impls = {'/mobile_device/image_raw': SimpleNamespace(closed=False, connections=[]),
+             '/gone': SimpleNamespace(closed=True, connections=[])}
+    manager = SimpleNamespace(get_subscriber_impl=lambda topic: impls.get(topic))
+    monkeypatch.setattr(registration, 'get_topic_manager', lambda: manager)
+    assert fastpub.subscribed_here('/mobile_device/image_raw')
+    assert not fastpub.subscribed_here('/gone')
+    assert not fastpub.subscribed_here('/mobile_device/points')
+    monkeypatch.setattr(registration, 'get_topic_manager', lambda: None)    # no node yet
+    assert not fastpub.subscribed_here('/mobile_device/image_raw')

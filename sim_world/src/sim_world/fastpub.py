@@ -30,7 +30,8 @@ import time
 import weakref
 
 __all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'hold', 'holding', 'no_yield',
-           'publisher', 'release', 'set_sim_clock', 'take_times', 'unsent', 'wait_sent']
+           'publisher', 'release', 'set_sim_clock', 'subscribed_here', 'take_times', 'unsent',
+           'wait_sent']
 
 log = logging.getLogger('sim_world.fastpub')
 
@@ -256,6 +257,16 @@ def _subscriber_impl(topic):
     if sub is None or getattr(sub, 'closed', False):
         return None
     return sub
+
+
+def subscribed_here(topic):
+    """True when this node has a live subscriber of ``topic`` (resolved name), connected
+    or not yet: rospy connects a node's subscriber to the node's own publisher through the
+    master, asynchronously, a few hundred ms after both were made."""
+    try:
+        return _subscriber_impl(topic) is not None
+    except ImportError:  # pragma: no cover - rospy is there in the project environment
+        return False
 
 
 class _LocalDelivery(object):

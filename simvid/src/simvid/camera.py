@@ -246,7 +246,17 @@ class CameraPlugin(Plugin):
 
     # -- frames ------------------------------------------------------------------------------
     def will_draw(self):
-        return bool(self.wanted()[0])
+        """A subscriber needs frames (``wanted``), or a plugin of this same world subscribes
+        to the image (the phone's display showing its camera) and its connection, which
+        rospy makes asynchronously, is not in yet: the renderer is made before the first
+        step all the same, not inside the first slice of a scenario's timeline."""
+        if self.wanted()[0]:
+            return True
+        if not self._pubs:
+            return False
+        from sim_world.fastpub import subscribed_here
+        return any(subscribed_here(t) for t in (self.image_topic, self.points_topic,
+                                                self.depth_topic) if t)
 
     def _subscribed(self, *keys):
         return any(k in self._pubs and self._pubs[k].get_num_connections() > 0 for k in keys)

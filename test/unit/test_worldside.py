@@ -152,7 +152,10 @@ def test_the_master_and_the_world_node_below_roslaunch_are_watched(tmp_path):
     try:
         import time
         deadline = time.monotonic() + 20
-        while time.monotonic() < deadline and not open(str(tmp_path / 'l.log')).read():
+        # the line is whole once it ends in a newline (print may write it in pieces,
+        # e.g. under PYTHONUNBUFFERED)
+        while time.monotonic() < deadline and \
+                not open(str(tmp_path / 'l.log')).read().endswith('\n'):
             time.sleep(0.02)
         _spawner, node = (int(x) for x in open(str(tmp_path / 'l.log')).read().split())
         ws.watch.update(ws.core.pids())          # start_master's

@@ -76,3 +76,29 @@ def test_under_pytest_the_thread_is_named_with_the_test_that_started_it(tmp_path
             in p.stderr), p.stderr
     assert 'test_quiet' not in p.stderr and 'test_after_it' not in p.stderr
     assert time.monotonic() - t0 < 60
+
+
+TWO_SPEEDS = '''
+import time
+
+def test_fast():
+    assert True
+
+def test_slow():
+    time.sleep(6)
+'''
+
+
+def test_an_xdist_worker_idle_while_another_works_is_not_killed(tmp_path):
+    """Under `-n 2` the worker that ran out of tests waits for the controller to end the
+    run: no timer there (it once printed 'Timeout' and exited 1 mid-suite)."""
+    (tmp_path / 'test_speeds.py').write_text(TWO_SPEEDS)
+    env = dict(os.environ, MDS_EXIT_WATCH_SECONDS='2',
+               PYTHONPATH=TEST + os.pathsep + os.environ.get('PYTHONPATH', ''))
+    p = subprocess.run([sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider',
+                        '-p', 'fixtures.exit_watch', '-n', '2', '--dist', 'load',
+                        str(tmp_path / 'test_speeds.py')],
+                       cwd=str(tmp_path), env=env, stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True, timeout=120)
+    assert '2 passed' in p.stdout, p.stdout
+    assert 'Timeout' not in p.stdout and p.returncode == 0, p.stdout

@@ -102,3 +102,13 @@ def test_an_xdist_worker_idle_while_another_works_is_not_killed(tmp_path):
                        stderr=subprocess.STDOUT, text=True, timeout=120)
     assert '2 passed' in p.stdout, p.stdout
     assert 'Timeout' not in p.stdout and p.returncode == 0, p.stdout
+
+
+def test_the_seconds_come_from_the_environment_and_a_bad_value_is_named():
+    import pytest
+    from fixtures import exit_watch
+    assert exit_watch._seconds({}) == 120
+    assert exit_watch._seconds({'MDS_EXIT_WATCH_SECONDS': ' 7 '}) == 7
+    with pytest.raises(ValueError, match="MDS_EXIT_WATCH_SECONDS must be a whole number of "
+                                         "seconds, got 'soon'"):
+        exit_watch._seconds({'MDS_EXIT_WATCH_SECONDS': 'soon'})

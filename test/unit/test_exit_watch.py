@@ -85,7 +85,7 @@ def test_fast():
     assert True
 
 def test_slow():
-    time.sleep(6)
+    time.sleep(3)
 '''
 
 
@@ -93,7 +93,7 @@ def test_an_xdist_worker_idle_while_another_works_is_not_killed(tmp_path):
     """Under `-n 2` the worker that ran out of tests waits for the controller to end the
     run: no timer there (it once printed 'Timeout' and exited 1 mid-suite)."""
     (tmp_path / 'test_speeds.py').write_text(TWO_SPEEDS)
-    env = dict(os.environ, MDS_EXIT_WATCH_SECONDS='2',
+    env = dict(os.environ, MDS_EXIT_WATCH_SECONDS='1',
                PYTHONPATH=TEST + os.pathsep + os.environ.get('PYTHONPATH', ''))
     p = subprocess.run([sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider',
                         '-p', 'fixtures.exit_watch', '-n', '2', '--dist', 'load',

@@ -53,3 +53,47 @@ def test_a_core_of_its_own_with_sim_time_and_a_rosout_without_it(tmp_path):
     assert not any(procs.alive(p) for p in pids)
     assert not core.alive()
     assert os.path.exists(str(tmp_path / 'rosmaster.log'))
+
+
+def test_a_master_whose_port_is_taken_is_known_at_once_not_at_the_deadline(tmp_path):
+    """rosmaster does not exit when it cannot bind its port: it prints "Unable to start
+    XML-RPC server" and waits for its server for ever. wait_up sees that (another master's
+    pid on the port, or that line) and returns False within seconds, so the run starts
+    again on a new port instead of waiting until its deadline (the cluster sweep's lost
+    120 s)."""
+    import socket
+    import rosgraph
+    port = procs.free_port()
+    env = procs.ros_env(str(tmp_path / 'log'), port)
+    first = procs.Core(port, env, str(tmp_path))
+    os.makedirs(str(tmp_path / 'second'))
+    os.makedirs(str(tmp_path / 'third'))
+    cores = [first]
+    listener = socket.socket()
+    try:
+        m = rosgraph.Master('/test_core', master_uri=env['ROS_MASTER_URI'])
+        assert first.wait_up(m, time.monotonic() + 30.0), procs.tail(first.master.log_path)
+        # a second master on the first one's port
+        second = procs.Core(port, env, str(tmp_path / 'second'))
+        cores.append(second)
+        t0 = time.monotonic()
+        assert not second.wait_up(m, time.monotonic() + 60.0)
+        assert second.taken and second.alive()
+        assert time.monotonic() - t0 < 10.0
+        # a port held by something that is not a master: the rosmaster's own line
+        listener.bind(('', 0))
+        listener.listen(1)
+        other = listener.getsockname()[1]
+        third = procs.Core(other, env, str(tmp_path / 'third'))
+        cores.append(third)
+        m3 = rosgraph.Master('/test_core', master_uri='http://localhost:%d' % other)
+        t0 = time.monotonic()
+        assert not third.wait_up(m3, time.monotonic() + 60.0)
+        assert third.taken and third.port_taken()
+        assert time.monotonic() - t0 < 15.0
+        assert any('already in use' in line for line in third.log_tail())
+    finally:
+        listener.close()
+        for c in cores:
+            c.kill()
+    assert not any(c.alive() for c in cores)

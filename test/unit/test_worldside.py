@@ -1,6 +1,7 @@
 """The run's side of the world (worldside.py), without a master: what a dead part of the
 world is called in the run's ERROR, the log a run shows, what is stopped at the end."""
 import os
+import re
 import subprocess
 import sys
 import types
@@ -192,22 +193,59 @@ class _Master(object):
 
 
 def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path, monkeypatch):
-    """wait_master asks the master for its pid: on a port just taken by another job's
-    master, that one answers first; the run waits for its own (or for its exit, an error
-    naming it, with its output)."""
+    """wait_master asks the master for its pid until its own answers. Another pid on the
+    port, or the rosmaster's own "Unable to start XML-RPC server" line, means the port is
+    taken: a rosmaster that cannot bind does not exit (it waits for its server for ever),
+    so the run says so at once instead of waiting for its deadline. A rosmaster that
+    exits is named with its code and output."""
+    import time
     import rosgraph
     ws = WorldSide(_sc(), str(tmp_path), port=1)
-    ws.core = _core(Proc([sys.executable, '-c', 'import time; time.sleep(60)'],
-                         dict(os.environ), str(tmp_path / 'm.log')))
+
+    def sleeper(log):
+        return _core(Proc([sys.executable, '-c', 'import time; time.sleep(60)'],
+                          dict(os.environ), str(tmp_path / log)))
+    ws.core = sleeper('m.log')
     own = ws.core.master.p.pid
-    fake = _Master([OSError('connection refused'), own + 1, own + 1, own])
+    fake = _Master([OSError('connection refused'), OSError('connection refused'), own])
     monkeypatch.setattr(rosgraph, 'Master', lambda *a, **kw: fake)
     try:
-        import time
         assert ws.wait_master(time.monotonic() + 10.0) is fake
-        assert len(fake.calls) == 4
+        assert len(fake.calls) == 3
     finally:
         ws.core.kill()
+    # another job's master answers on the port
+    ws.core = sleeper('m2.log')
+    fake.pids, fake.calls = [OSError('connection refused'), 1], []   # init's pid
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(RunError) as e:
+            ws.wait_master(time.monotonic() + 30.0)
+    finally:
+        ws.core.kill()
+    assert str(e.value) == 'the ROS master could not take port 1: another process has it'
+    assert time.monotonic() - t0 < 10.0 and len(fake.calls) == 2
+    # nothing answers, and the rosmaster printed that it cannot bind (any other listener)
+    ws.core = sleeper('m3.log')
+    with open(ws.core.master.log_path, 'w') as f:
+        f.write('ERROR: Unable to start XML-RPC server, port 1 is already in use\n')
+    fake.pids = [OSError('connection refused')]
+    try:
+        with pytest.raises(RunError) as e:
+            ws.wait_master(time.monotonic() + 30.0)
+    finally:
+        ws.core.kill()
+    assert 'could not take port 1' in str(e.value)
+    # nothing answers, nothing said: the time waited (not the scenario's timeout)
+    ws.core = sleeper('m4.log')
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(RunError) as e:
+            ws.wait_master(time.monotonic() + 0.5)
+    finally:
+        ws.core.kill()
+    assert re.fullmatch(r'no ROS master at http://localhost:1 after 0\.[5-9] s',
+                        str(e.value)), str(e.value)
     ws.core = _core(_exited_proc(tmp_path, 1, 'port in use', log='rosmaster.log'))
     fake.pids = [own + 1]
     with pytest.raises(RunError) as e:

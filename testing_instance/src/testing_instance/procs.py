@@ -9,6 +9,7 @@ import sys
 import threading
 import time
 import uuid
+import xmlrpc.client
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
@@ -111,6 +112,32 @@ class Proc(object):
         self.log.close()
 
 
+class _TimedTransport(xmlrpc.client.Transport):
+    def __init__(self, timeout):
+        super().__init__()
+        self.timeout = timeout
+
+    def make_connection(self, host):
+        conn = super().make_connection(host)
+        conn.timeout = self.timeout
+        return conn
+
+
+def master_pid(master, timeout=2.0):
+    """The pid the master at ``master`` (rosgraph.Master) answers with, asked with a
+    socket timeout: a port taken by another node's TCPROS server accepts the call and
+    never answers it (rosgraph.Master's own calls have no timeout). Anything without a
+    ``master_uri`` (a test's stand-in) is asked by its ``getPid()``."""
+    uri = getattr(master, 'master_uri', None)
+    if uri is None:
+        return master.getPid()
+    proxy = xmlrpc.client.ServerProxy(uri, transport=_TimedTransport(timeout))
+    code, msg, pid = proxy.getPid(master.caller_id)
+    if code != 1:
+        raise RuntimeError(msg)
+    return pid
+
+
 class Core(object):
     """A ROS master and rosout of a run's own (embedded, ``--world-node``, a replay, a warm
     worker), started directly instead of by ``roscore``. roscore is a roslaunch: it runs
@@ -137,28 +164,52 @@ class Core(object):
         self.master = Proc(['rosmaster', '--core', '-p', str(port), '-w', '3'], env,
                            os.path.join(run_dir, 'rosmaster.log'))
         self.rosout = None
+        self.taken = False       # wait_up found the port taken
 
     def alive(self):
         """The master is running (rosout is not watched: nothing of a run needs it)."""
         return self.master.alive()
 
+    #: what rosmaster prints when its port is taken (rosgraph.xmlrpc); it does not exit
+    #: then: its main thread waits for the server's URI for ever, 20 % of a core busy
+    PORT_TAKEN = 'Unable to start XML-RPC server'
+
     def wait_up(self, master, deadline):
         """Until ``master`` (rosgraph.Master on this core's port) answers with the pid of
-        this core's rosmaster (on a port just taken by another job's master, that one would
-        answer); False at ``deadline`` or once the rosmaster has exited (its port taken)."""
+        this core's rosmaster; False at ``deadline``, once the rosmaster has exited, or
+        once its port is known to be taken (``port_taken``): another job's master answers
+        there, or the rosmaster said it could not bind. A rosmaster whose port is taken
+        does not exit: without these looks the run waited until its deadline (120 s)."""
         answered = []
+        self.taken = False
 
         def done():
             if not self.alive():
                 return True
+            if self.port_taken():
+                self.taken = True
+                return True
             try:
-                if master.getPid() == self.master.p.pid:
-                    answered.append(True)
+                pid = master_pid(master)
             except Exception:  # noqa: BLE001 - not up yet
-                pass
-            return bool(answered)
+                pid = None
+            if pid == self.master.p.pid:
+                answered.append(True)
+                return True
+            if pid is not None:              # another master has the port
+                self.taken = True
+                return True
+            return False
         poll(done, deadline, first=0.005)
         return bool(answered)
+
+    def port_taken(self):
+        """The rosmaster said its port is in use (its log)."""
+        try:
+            with open(self.master.log_path, errors='replace') as f:
+                return self.PORT_TAKEN in f.read(4096)
+        except OSError:
+            return False
 
     def up(self, master):
         """The master (rosgraph.Master) answers: set /use_sim_time and roscore's

@@ -153,13 +153,18 @@ class WorldSide(object):
         pid: on a port just taken by another job's master, that one would answer)."""
         import rosgraph
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
+        t0 = time.monotonic()
         if self.core.wait_up(m, deadline):
             return m
         if not self.core.alive():
             raise RunError('the ROS master exited while starting (code %s)'
                            % self.core.master.p.returncode, self.log_tail())
-        raise RunError('no ROS master at %s after %g s' % (self.master_uri(),
-                                                           self.sc.timeout), self.log_tail())
+        if self.core.taken:
+            raise RunError('the ROS master could not take port %d: another process has it'
+                           % self.port, self.log_tail())
+        raise RunError('no ROS master at %s after %.1f s' % (self.master_uri(),
+                                                             time.monotonic() - t0),
+                       self.log_tail())
 
     def start_master(self, deadline, meanwhile=None):
         """The run's own master and rosout (procs.Core) on a free port, once the master

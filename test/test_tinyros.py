@@ -4,16 +4,16 @@ integration with a real roscore.
   * ctest of the C unit tests from the catkin build (tools/setup);
   * the same C tests built with AddressSanitizer + UndefinedBehaviorSanitizer in
     build/tinyros-asan, whose tinyros_echo also faces the hostile publisher;
-  * libFuzzer targets (header, XML-RPC, Image) built with clang in build/tinyros-fuzz,
-    each run for $MDS_FUZZ_SECONDS (default 30) from the seed corpus in the repo;
+  * libFuzzer targets (header, XML-RPC, Image) built with clang in build/tinyros-fuzz
+    (fixtures/libfuzzer.py), each run for $MDS_FUZZ_SECONDS (default 10) from the seed
+    corpus in the repo; bench/fuzz runs them for 5 minutes each (--only libfuzzer);
   * a real roscore on a free port: frames from a rospy and a roscpp publisher arrive
     byte-identical, a killed and restarted publisher resumes (publisherUpdate), an
     absent master is one clear error, a hostile publisher is survived.
-Cost: about 3 minutes on 2 cores, 90 s of which are fuzzing (MDS_FUZZ_SECONDS=30).
+Cost: about 2 minutes on 2 cores, 30 s of which are fuzzing (MDS_FUZZ_SECONDS=10).
 """
 import os
 import re
-import shutil
 import signal
 import socket
 import subprocess
@@ -27,19 +27,18 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 BUILD = os.environ.get('MDS_BUILD', os.path.join(ROOT, 'build'))
-SRC = os.path.join(ROOT, 'tinyros_android')
 BIN = os.path.join(BUILD, 'devel', 'lib', 'mobile_device_sim')
 ECHO = os.path.join(BIN, 'tinyros_echo')
 PEER = os.path.join(BIN, 'tinyros_roscpp_peer')
 CTEST_DIR = os.path.join(BUILD, 'cmake', 'tinyros_android')
 ASAN_DIR = os.path.join(BUILD, 'tinyros-asan')
-FUZZ_DIR = os.path.join(BUILD, 'tinyros-fuzz')
-FUZZ_SECONDS = int(os.environ.get('MDS_FUZZ_SECONDS', '30'))
+FUZZ_SECONDS = int(os.environ.get('MDS_FUZZ_SECONDS', '10'))
 PUB_PY = os.path.join(HERE, 'tinyros', 'image_pub.py')
 
 sys.path.insert(0, os.path.join(HERE, 'tinyros'))
 import hostile_publisher as hp  # noqa: E402
 from sim_world.netutil import free_port as _free_port  # noqa: E402
+from fixtures import libfuzzer  # noqa: E402
 
 FRAME_RE = re.compile(r'^frame seq=(\d+) stamp=\S+ frame_id=(\S*) (\d+)x(\d+) (\S+) be=(\d) step=(\d+) '
                       r'bytes=(\d+) crc32=([0-9a-f]{8})$')
@@ -130,14 +129,10 @@ def test_ctest_catkin_build():
 
 
 def _cmake_build(build_dir, *defs, targets=()):
-    os.makedirs(build_dir, exist_ok=True)
-    r = _run(['cmake', '-S', SRC, '-B', build_dir, '-DCMAKE_BUILD_TYPE=Debug'] + list(defs), timeout=300)
-    assert r.returncode == 0, r.stdout[-4000:]
-    cmd = ['cmake', '--build', build_dir, '-j', '2']
-    for t in targets:
-        cmd += ['--target', t]
-    r = _run(cmd, timeout=900)
-    assert r.returncode == 0, r.stdout[-6000:]
+    try:
+        libfuzzer.cmake_build(build_dir, *defs, targets=targets)
+    except libfuzzer.BuildError as e:
+        pytest.fail(str(e))
 
 
 @pytest.fixture(scope='module')
@@ -158,32 +153,21 @@ def test_ctest_under_asan_ubsan(asan_build):
 
 @pytest.fixture(scope='module')
 def fuzz_build():
-    if not shutil.which('clang'):
-        pytest.fail('clang is missing (tools/apt-packages.txt lists it; run tools/setup)')
-    _cmake_build(FUZZ_DIR, '-DTINYROS_FUZZ=ON', '-DCMAKE_C_COMPILER=clang', '-DCMAKE_CXX_COMPILER=clang++',
-                 targets=['tinyros_fuzz_header', 'tinyros_fuzz_xmlrpc', 'tinyros_fuzz_image'])
-    return FUZZ_DIR
+    try:
+        return libfuzzer.build()
+    except libfuzzer.BuildError as e:
+        pytest.fail(str(e))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('target', ['header', 'xmlrpc', 'image'])
+@pytest.mark.parametrize('target', libfuzzer.TARGETS)
 def test_fuzz(fuzz_build, target):
     """libFuzzer (with ASan+UBSan) on one parser for MDS_FUZZ_SECONDS from the repo's seed corpus."""
-    seeds = os.path.join(SRC, 'fuzz', 'corpus', target)
-    assert len(os.listdir(seeds)) >= 3
-    work = os.path.join(fuzz_build, 'work-' + target)
-    os.makedirs(work, exist_ok=True)
-    artifacts = os.path.join(fuzz_build, 'artifacts-' + target) + os.sep
-    shutil.rmtree(artifacts, ignore_errors=True)
-    os.makedirs(artifacts)
-    r = _run([os.path.join(fuzz_build, 'tinyros_fuzz_' + target), '-max_total_time=%d' % FUZZ_SECONDS,
-              '-max_len=8192', '-rss_limit_mb=1024', '-timeout=10', '-print_final_stats=1',
-              '-artifact_prefix=' + artifacts, work, seeds], timeout=FUZZ_SECONDS + 120)
-    tail = r.stdout[-5000:]
-    assert r.returncode == 0, tail
-    assert not os.listdir(artifacts), 'crash inputs in %s\n%s' % (artifacts, tail)
-    m = re.search(r'stat::number_of_executed_units:\s*(\d+)', r.stdout)
-    assert m and int(m.group(1)) > 1000, tail
+    assert len(os.listdir(libfuzzer.seeds(target))) >= 3
+    r = libfuzzer.run(target, FUZZ_SECONDS)
+    assert r.returncode == 0, r.tail
+    assert not r.crashes, 'crash inputs %s\n%s' % (r.crashes, r.tail)
+    assert r.executions > 1000, r.tail
 
 
 # ---- a real roscore ---------------------------------------------------------------------------

@@ -42,8 +42,8 @@ class AudioDevice(unittest.TestCase):
         cls.sub = rospy.Subscriber('/%s/microphone/audio' % B, AudioData, cls.chunks.append,
                                    queue_size=1000)
         cls.spk = rospy.Publisher('/%s/speaker/audio' % A, AudioData, queue_size=10)
-        # the world and audio_device both listen to A's speaker
-        wait_connected(cls.spk, cls.sub, 2)
+        # the world listens to A's speaker (audio_device publishes into it: the sink)
+        wait_connected(cls.spk, cls.sub, 1)
         cls.tmp = tempfile.mkdtemp(prefix='audio_device_test_')
 
     def test_parecord_hears_phone_a_through_phone_b(self):

@@ -99,11 +99,17 @@ def start(node, models=('mobile_device',), timeout=90.0):
 
 
 def wait_connected(pub, sub, subscribers=1, timeout=60.0):
-    """Wait (at most ``timeout`` s of wall time, then go on) until ``pub`` has
-    ``subscribers`` subscribers and ``sub`` a publisher."""
+    """Wait (at most ``timeout`` s of wall time) until ``pub`` has ``subscribers``
+    subscribers and ``sub`` a publisher; AssertionError with both counts if not (a wait
+    that went on silently once cost audio_device.test a minute on every run, waiting for a
+    subscriber that never comes)."""
     deadline = time.time() + timeout
-    while time.time() < deadline and (pub.get_num_connections() < subscribers
-                                      or sub.get_num_connections() == 0):
+    while pub.get_num_connections() < subscribers or sub.get_num_connections() == 0:
+        if time.time() >= deadline:
+            raise AssertionError(
+                '%s has %d subscriber(s), not %d, and %s %d publisher(s) after %g s'
+                % (pub.resolved_name, pub.get_num_connections(), subscribers,
+                   sub.resolved_name, sub.get_num_connections(), timeout))
         time.sleep(0.1)
 
 

@@ -97,3 +97,36 @@ def test_a_master_whose_port_is_taken_is_known_at_once_not_at_the_deadline(tmp_p
         for c in cores:
             c.kill()
     assert not any(c.alive() for c in cores)
+
+
+def test_a_run_whose_master_port_is_taken_starts_again_on_another(tmp_path):
+    """run_scenario handed a port another master holds (two jobs that picked the same port
+    at once): its master cannot bind, the run sees that at once and starts a master on a new
+    port, and the scenario passes within seconds (it used to be an ERROR "no ROS master ...
+    after 300 s" after 120 s of waiting)."""
+    import subprocess
+    import sys
+    import rosgraph
+    from fixtures.scenario_cli import EX, NODE, scenario_env
+    port = procs.free_port()
+    env = procs.ros_env(str(tmp_path / 'log'), port)
+    holder = procs.Core(port, env, str(tmp_path))
+    try:
+        m = rosgraph.Master('/test_core', master_uri=env['ROS_MASTER_URI'])
+        assert holder.wait_up(m, time.monotonic() + 30.0)
+        t0 = time.monotonic()
+        p = subprocess.run(
+            [sys.executable, os.path.join(os.path.dirname(__file__), 'fixtures',
+                                          'taken_port_run.py'), str(port), NODE,
+             os.path.join(EX, 'compass_declination.yaml')],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300,
+            env=scenario_env())
+        wall = time.monotonic() - t0
+        assert p.returncode == 0, p.stdout
+        assert 'PASS points_to_true_north' in p.stdout
+        assert wall < 60.0, (wall, p.stdout)
+        # the holder's master saw no node of the run
+        nodes = {n for _t, ns in m.getSystemState()[0] for n in ns}
+        assert nodes <= {'/rosout'}, nodes
+    finally:
+        holder.kill()

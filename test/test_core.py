@@ -78,7 +78,8 @@ def test_a_master_whose_port_is_taken_is_known_at_once_not_at_the_deadline(tmp_p
         cores.append(second)
         t0 = time.monotonic()
         assert not second.wait_up(m, time.monotonic() + 60.0)
-        assert second.taken and second.alive()
+        assert second.taken == 'another master (pid %d) answers there' % first.master.p.pid
+        assert second.alive()
         assert time.monotonic() - t0 < 10.0
         # a port held by something that is not a master: the rosmaster's own line
         listener.bind(('', 0))
@@ -89,7 +90,8 @@ def test_a_master_whose_port_is_taken_is_known_at_once_not_at_the_deadline(tmp_p
         m3 = rosgraph.Master('/test_core', master_uri='http://localhost:%d' % other)
         t0 = time.monotonic()
         assert not third.wait_up(m3, time.monotonic() + 60.0)
-        assert third.taken and third.port_taken()
+        assert third.taken == third.port_taken() == \
+            'Unable to start XML-RPC server, port %d is already in use' % other
         assert time.monotonic() - t0 < 15.0
         assert any('already in use' in line for line in third.log_tail())
     finally:

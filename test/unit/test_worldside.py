@@ -223,7 +223,8 @@ def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path
             ws.wait_master(time.monotonic() + 30.0)
     finally:
         ws.core.kill()
-    assert str(e.value) == 'the ROS master could not take port 1: another process has it'
+    assert str(e.value) == ('the ROS master could not take port 1: another master (pid 1) '
+                            'answers there')
     assert time.monotonic() - t0 < 10.0 and len(fake.calls) == 2
     # nothing answers, and the rosmaster printed that it cannot bind (any other listener)
     ws.core = sleeper('m3.log')
@@ -235,7 +236,8 @@ def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path
             ws.wait_master(time.monotonic() + 30.0)
     finally:
         ws.core.kill()
-    assert 'could not take port 1' in str(e.value)
+    assert str(e.value) == ('the ROS master could not take port 1: Unable to start XML-RPC '
+                            'server, port 1 is already in use')
     # nothing answers, nothing said: the time waited (not the scenario's timeout)
     ws.core = sleeper('m4.log')
     t0 = time.monotonic()

@@ -164,7 +164,7 @@ class Core(object):
         self.master = Proc(['rosmaster', '--core', '-p', str(port), '-w', '3'], env,
                            os.path.join(run_dir, 'rosmaster.log'))
         self.rosout = None
-        self.taken = False       # wait_up found the port taken
+        self.taken = None        # wait_up found the port taken: how (a line)
 
     def alive(self):
         """The master is running (rosout is not watched: nothing of a run needs it)."""
@@ -181,13 +181,14 @@ class Core(object):
         there, or the rosmaster said it could not bind. A rosmaster whose port is taken
         does not exit: without these looks the run waited until its deadline (120 s)."""
         answered = []
-        self.taken = False
+        self.taken = None
 
         def done():
             if not self.alive():
                 return True
-            if self.port_taken():
-                self.taken = True
+            said = self.port_taken()
+            if said:
+                self.taken = said
                 return True
             try:
                 pid = master_pid(master)
@@ -196,20 +197,25 @@ class Core(object):
             if pid == self.master.p.pid:
                 answered.append(True)
                 return True
-            if pid is not None:              # another master has the port
-                self.taken = True
+            if pid is not None:
+                self.taken = 'another master (pid %s) answers there' % pid
                 return True
             return False
         poll(done, deadline, first=0.005)
         return bool(answered)
 
     def port_taken(self):
-        """The rosmaster said its port is in use (its log)."""
+        """The line in which the rosmaster said it could not start its server (its port is
+        in use, or another socket error), or None."""
         try:
             with open(self.master.log_path, errors='replace') as f:
-                return self.PORT_TAKEN in f.read(4096)
+                text = f.read(4096)
         except OSError:
-            return False
+            return None
+        for line in text.splitlines():
+            if self.PORT_TAKEN in line:
+                return line.replace('ERROR: ', '', 1).strip()
+        return None
 
     def up(self, master):
         """The master (rosgraph.Master) answers: set /use_sim_time and roscore's

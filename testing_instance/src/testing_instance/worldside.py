@@ -150,7 +150,8 @@ class WorldSide(object):
 
     def wait_master(self, deadline):
         """Until the run's own master answers: it is the rosmaster this run started (its
-        pid: on a port just taken by another job's master, that one would answer)."""
+        pid). A port taken meanwhile (another job's master answers there, or the rosmaster
+        said it cannot bind) is an error at once: start_master tries a new port."""
         import rosgraph
         m = rosgraph.Master('/scenario_runner', master_uri=self.master_uri())
         t0 = time.monotonic()
@@ -160,8 +161,8 @@ class WorldSide(object):
             raise RunError('the ROS master exited while starting (code %s)'
                            % self.core.master.p.returncode, self.log_tail())
         if self.core.taken:
-            raise RunError('the ROS master could not take port %d: another process has it'
-                           % self.port, self.log_tail())
+            raise RunError('the ROS master could not take port %d: %s'
+                           % (self.port, self.core.taken), self.log_tail())
         raise RunError('no ROS master at %s after %.1f s' % (self.master_uri(),
                                                              time.monotonic() - t0),
                        self.log_tail())

@@ -214,40 +214,31 @@ def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path
         assert len(fake.calls) == 3
     finally:
         ws.core.kill()
+    def error(log, within, said=''):
+        """The RunError of wait_master on a fresh stand-in master that printed ``said``."""
+        ws.core = sleeper(log)
+        with open(ws.core.master.log_path, 'w') as f:
+            f.write(said)
+        try:
+            with pytest.raises(RunError) as e:
+                ws.wait_master(time.monotonic() + within)
+        finally:
+            ws.core.kill()
+        return str(e.value)
     # another job's master answers on the port
-    ws.core = sleeper('m2.log')
     fake.pids, fake.calls = [OSError('connection refused'), 1], []   # init's pid
     t0 = time.monotonic()
-    try:
-        with pytest.raises(RunError) as e:
-            ws.wait_master(time.monotonic() + 30.0)
-    finally:
-        ws.core.kill()
-    assert str(e.value) == ('the ROS master could not take port 1: another master (pid 1) '
-                            'answers there')
+    assert error('m2.log', 30.0) == ('the ROS master could not take port 1: another master '
+                                     '(pid 1) answers there')
     assert time.monotonic() - t0 < 10.0 and len(fake.calls) == 2
     # nothing answers, and the rosmaster printed that it cannot bind (any other listener)
-    ws.core = sleeper('m3.log')
-    with open(ws.core.master.log_path, 'w') as f:
-        f.write('ERROR: Unable to start XML-RPC server, port 1 is already in use\n')
     fake.pids = [OSError('connection refused')]
-    try:
-        with pytest.raises(RunError) as e:
-            ws.wait_master(time.monotonic() + 30.0)
-    finally:
-        ws.core.kill()
-    assert str(e.value) == ('the ROS master could not take port 1: Unable to start XML-RPC '
-                            'server, port 1 is already in use')
+    assert error('m3.log', 30.0, 'ERROR: Unable to start XML-RPC server, port 1 is already '
+                 'in use\n') == ('the ROS master could not take port 1: Unable to start '
+                                 'XML-RPC server, port 1 is already in use')
     # nothing answers, nothing said: the time waited (not the scenario's timeout)
-    ws.core = sleeper('m4.log')
-    t0 = time.monotonic()
-    try:
-        with pytest.raises(RunError) as e:
-            ws.wait_master(time.monotonic() + 0.5)
-    finally:
-        ws.core.kill()
-    assert re.fullmatch(r'no ROS master at http://localhost:1 after 0\.[5-9] s',
-                        str(e.value)), str(e.value)
+    said = error('m4.log', 0.5)
+    assert re.fullmatch(r'no ROS master at http://localhost:1 after 0\.[5-9] s', said), said
     ws.core = _core(_exited_proc(tmp_path, 1, 'port in use', log='rosmaster.log'))
     fake.pids = [own + 1]
     with pytest.raises(RunError) as e:

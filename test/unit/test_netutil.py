@@ -46,3 +46,53 @@ def test_free_port_can_be_bound():
         s.bind(('127.0.0.1', port))
     finally:
         s.close()
+
+
+class _Draws(object):
+    """A random.Random stand-in whose randint gives ``ports`` in turn (the last again)."""
+    def __init__(self, *ports):
+        self.ports, self.asked = list(ports), []
+
+    def randint(self, a, b):
+        self.asked.append((a, b))
+        return self.ports.pop(0) if len(self.ports) > 1 else self.ports[0]
+
+
+def test_a_master_port_is_free_and_below_the_ephemeral_range():
+    low, high = netutil.MASTER_PORTS
+    for _ in range(20):
+        port = netutil.master_port()
+        assert low <= port <= high < netutil._ephemeral_low()
+        s = socket.socket()
+        try:
+            s.bind(('', port))
+        finally:
+            s.close()
+
+
+def test_a_taken_master_port_is_passed_over_and_all_taken_falls_back_to_free_port():
+    held = socket.socket()
+    held.bind(('', 0))
+    held.listen(1)
+    taken = held.getsockname()[1]
+    try:
+        want = netutil.master_port()
+        draws = _Draws(taken, taken, want)
+        assert netutil.master_port(rng=draws) == want
+        assert draws.asked == [netutil.MASTER_PORTS] * 3
+        draws = _Draws(taken)
+        port = netutil.master_port(tries=5, rng=draws)
+        assert len(draws.asked) == 5 and port != taken and netutil._bindable(port, '')
+    finally:
+        held.close()
+
+
+def test_master_ports_end_below_a_lowered_ephemeral_range(monkeypatch):
+    monkeypatch.setattr(netutil, '_ephemeral_low', lambda: 30000)
+    draws = _Draws(25000)
+    netutil.master_port(rng=draws)
+    assert draws.asked[0] == (netutil.MASTER_PORTS[0], 29999)
+    # no room below it at all: the kernel's free port
+    monkeypatch.setattr(netutil, '_ephemeral_low', lambda: 1024)
+    draws = _Draws(25000)
+    assert netutil.master_port(rng=draws) > 0 and draws.asked == []

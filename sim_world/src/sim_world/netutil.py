@@ -6,15 +6,61 @@ port 0, read back, released). Another process may take it before the caller bind
 callers that start a master retry once on a new port (testing_instance.runner).
 ``free_port(start)``: the first port from ``start`` on (200 tried) that can be bound now,
 for callers that want ports in a known range (pytest-xdist workers, bench/camera).
+``master_port()``: a free port for a run's own ROS master, drawn from below the kernel's
+ephemeral range (``MASTER_PORTS``). A port from ``free_port()`` is in that range, and a
+rosmaster binds it only after its imports (0.2-0.5 s): meanwhile any outgoing connection
+on the machine (an XML-RPC call, a TCPROS link, Ray's) can be given it as its local port,
+and two jobs can be handed the same one. Below the range only other masters' pickers
+compete, and they draw at random from 8,768 ports.
 
 ``wait_for_service(name, timeout)``: rospy.wait_for_service without its 0.3 s between looks
 (a node waiting for the world's services started up to 0.3 s late: the phone's spawner and
 the testing instance, on every scenario's start-up): asks the master every 20 ms.
 """
+import random
 import socket
 import time
 
-__all__ = ['free_port', 'wait_for_service']
+__all__ = ['free_port', 'master_port', 'wait_for_service']
+
+#: where master_port draws from: below the ephemeral range (Linux's default 32768-60999),
+#: above the test plugin's per-worker ranges (testing_instance.pytest_plugin: 20000 + 1000k)
+MASTER_PORTS = (24000, 32767)
+
+
+def _ephemeral_low():
+    try:
+        with open('/proc/sys/net/ipv4/ip_local_port_range') as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
+
+
+def _bindable(port, host):
+    s = socket.socket()
+    try:
+        s.bind((host, port))
+        return True
+    except OSError:
+        return False
+    finally:
+        s.close()
+
+
+def master_port(tries=100, rng=None):
+    """A port for a ROS master that can be bound now on every address (rosmaster binds
+    0.0.0.0), drawn at random (``rng``: a random.Random; the port is not data of the run,
+    so not the world's seeded generators) from MASTER_PORTS below the ephemeral range;
+    ``free_port()`` when none of ``tries`` draws is free."""
+    rng = rng or random.SystemRandom()
+    low, high = MASTER_PORTS
+    high = min(high, _ephemeral_low() - 1)
+    if high > low:
+        for _ in range(tries):
+            port = rng.randint(low, high)
+            if _bindable(port, ''):
+                return port
+    return free_port()
 
 
 def free_port(start=None, host='127.0.0.1'):

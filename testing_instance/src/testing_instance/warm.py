@@ -43,10 +43,9 @@ import tempfile
 import threading
 import time
 
-from sim_world.netutil import wait_for_service
+from sim_world.netutil import master_port, wait_for_service
 
 from . import procs
-from .procs import free_port
 from .results import EXIT_ERROR, RunError
 
 __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
@@ -95,7 +94,7 @@ class WarmHost(object):
                 raise RunError('the warm worker\'s ROS master died', self.core.log_tail())
             if fresh:
                 self._stop_world()
-                self.port = free_port()
+                self.port = master_port()
                 os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % self.port
                 os.environ.setdefault('ROS_HOSTNAME', 'localhost')
                 if pre is None:          # roslaunch's Python start while the master starts

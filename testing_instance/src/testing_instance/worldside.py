@@ -22,10 +22,10 @@ import os
 import subprocess
 import time
 
-from sim_world.netutil import wait_for_service
+from sim_world.netutil import master_port, wait_for_service
 
 from . import procs
-from .procs import free_port, poll, tail
+from .procs import poll, tail
 from .results import RunError
 
 __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
@@ -168,13 +168,14 @@ class WorldSide(object):
                        self.log_tail())
 
     def start_master(self, deadline, meanwhile=None):
-        """The run's own master and rosout (procs.Core) on a free port, once the master
+        """The run's own master and rosout (procs.Core) on a free port (netutil.master_port:
+        below the ephemeral range, where no outgoing connection takes it), once the master
         answers, with /use_sim_time set (``Core.up``): rospy reads it at init_node, else
         this node would time messages by the wall clock. ``meanwhile()`` runs once while
         the first master starts. Returns the master (rosgraph.Master)."""
         for attempt in (1, 2):
             if self.port is None or attempt == 2:
-                self.port = free_port()
+                self.port = master_port()
             self.start_core()
             if attempt == 1 and meanwhile is not None:
                 meanwhile()

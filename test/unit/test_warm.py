@@ -424,3 +424,45 @@ def test_a_launch_file_without_the_runners_arguments_is_an_error(tmp_path):
     (tmp_path / 'w.launch').write_text('<launch')
     assert declared_args(str(tmp_path / 'w.launch')) is None
     assert launch_args(load(str(f)), 0, 1.0)[1][-1] == 'x:=2'
+
+
+def test_a_warm_master_whose_ports_are_taken_is_one_error_saying_how(monkeypatch, tmp_path):
+    """A warm worker's master that finds its port taken starts again once on a new port;
+    taken again, the worker's ERROR names the port and how it was found taken."""
+    from testing_instance.results import RunError
+    monkeypatch.setenv('ROS_MASTER_URI', 'http://localhost:1')
+    ports = iter([24001, 24002])
+    monkeypatch.setattr(warm, 'master_port', lambda: next(ports))
+    cores = []
+
+    class TakenCore(object):
+        def __init__(self, port, env, run_dir):
+            self.port, self.stopped, self.taken = port, False, None
+            self.master = types.SimpleNamespace(p=types.SimpleNamespace(poll=lambda: None))
+            cores.append(self)
+
+        def alive(self):
+            return not self.stopped
+
+        def wait_up(self, master, deadline):
+            self.taken = 'another master (pid 7) answers there'
+            return False
+
+        def stop(self, grace=2.0):
+            self.stopped = True
+
+        def log_tail(self):
+            return ['rosmaster on %d' % self.port]
+    monkeypatch.setattr(warm.procs, 'Core', TakenCore)
+    launch = types.SimpleNamespace(stopped=False)
+    launch.stop = lambda grace=2.0: setattr(launch, 'stopped', True)
+    host = warm.WarmHost(str(tmp_path))
+    monkeypatch.setattr(host, '_new_launch', lambda runner: launch)
+    runner = types.SimpleNamespace(world_key=lambda: 'office')
+    with pytest.raises(RunError) as e:
+        host.ready(runner, deadline=0.0)
+    assert str(e.value) == ('no ROS master on port 24002 for the warm world: another master '
+                            '(pid 7) answers there')
+    assert e.value.log_lines == ['rosmaster on 24002']
+    assert [c.port for c in cores] == [24001, 24002] and all(c.stopped for c in cores)
+    assert launch.stopped

@@ -101,13 +101,16 @@ class WarmHost(object):
                     pre = self._new_launch(runner)
                 self.core = procs.Core(self.port, self.env(), self.dir)
                 if not self._await_core(deadline):
-                    # the free port was taken between the look and the master's bind
-                    # (another worker): once more on a new port
+                    # the port was taken between the look and the master's bind (another
+                    # master, or a connection's local port): once more on a new port
+                    why = self.core.taken or ('it exited (code %s)' % self.core.master.p.poll()
+                                              if not self.core.alive() else
+                                              'it did not answer in time')
                     self.core.stop(grace=2.0)
                     if attempt == 2:
                         pre.stop(grace=2.0)
-                        raise RunError('no ROS master on port %d for the warm world'
-                                       % self.port, self.core.log_tail())
+                        raise RunError('no ROS master on port %d for the warm world: %s'
+                                       % (self.port, why), self.core.log_tail())
                     continue
             runner.port = self.port
             if fresh or key != self.key or self.launch is None or \
@@ -244,9 +247,9 @@ class WarmHost(object):
                                master_uri='http://localhost:%d' % self.port)
 
     def _await_core(self, deadline):
-        """True once the worker's own master answers (its pid: on a port just taken by
-        another worker's master, that one would); then /use_sim_time is set and rosout
-        started (procs.Core.up). False when the master exited (its port was taken)."""
+        """True once the worker's own master answers (its pid); then /use_sim_time is set
+        and rosout started (procs.Core.up). False when it exited, did not answer by the
+        deadline, or found its port taken (``core.taken`` says how)."""
         m = self._master()
         if not self.core.wait_up(m, deadline):
             return False

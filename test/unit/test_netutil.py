@@ -82,7 +82,7 @@ def test_a_taken_master_port_is_passed_over_and_all_taken_falls_back_to_free_por
         assert draws.asked == [netutil.MASTER_PORTS] * 3
         draws = _Draws(taken)
         port = netutil.master_port(tries=5, rng=draws)
-        assert len(draws.asked) == 5 and port != taken and netutil._bindable(port, '')
+        assert len(draws.asked) == 5 and port != taken and netutil.bindable(port, '')
     finally:
         held.close()
 

@@ -21,7 +21,7 @@ import random
 import socket
 import time
 
-__all__ = ['free_port', 'master_port', 'wait_for_service']
+__all__ = ['bindable', 'free_port', 'master_port', 'wait_for_service']
 
 #: where master_port draws from: below the ephemeral range (Linux's default 32768-60999),
 #: above the test plugin's per-worker ranges (testing_instance.pytest_plugin: 20000 + 1000k)
@@ -36,7 +36,8 @@ def _ephemeral_low():
         return 32768
 
 
-def _bindable(port, host):
+def bindable(port, host='127.0.0.1'):
+    """Can a TCP socket be bound to (host, port) now?"""
     s = socket.socket()
     try:
         s.bind((host, port))
@@ -58,7 +59,7 @@ def master_port(tries=100, rng=None):
     if high > low:
         for _ in range(tries):
             port = rng.randint(low, high)
-            if _bindable(port, ''):
+            if bindable(port, ''):
                 return port
     return free_port()
 
@@ -72,14 +73,8 @@ def free_port(start=None, host='127.0.0.1'):
         finally:
             s.close()
     for port in range(int(start), int(start) + 200):
-        s = socket.socket()
-        try:
-            s.bind((host, port))
+        if bindable(port, host):
             return port
-        except OSError:
-            continue
-        finally:
-            s.close()
     raise RuntimeError('no free port in %d..%d' % (start, start + 199))
 
 

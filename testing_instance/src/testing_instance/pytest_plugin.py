@@ -17,7 +17,6 @@ parameter values as properties). An invalid file is one failing item with the va
 """
 import os
 import re
-import socket
 import subprocess
 
 import pytest
@@ -99,14 +98,8 @@ class InvalidScenario(_ScenarioReport):
 
 
 def _free(port):
-    s = socket.socket()
-    try:
-        s.bind(('localhost', port))
-        return True
-    except OSError:
-        return False
-    finally:
-        s.close()
+    from sim_world.netutil import bindable
+    return bindable(port, 'localhost')
 
 
 _counter = [0]

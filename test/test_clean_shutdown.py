@@ -35,8 +35,8 @@ def test_demo_exit_is_clean():
 
 
 def test_ctrl_c_on_roslaunch_is_clean():
-    from testing_instance.runner import free_port
-    port = free_port()
+    from sim_world.netutil import master_port
+    port = master_port()
     e = env()
     e['ROS_MASTER_URI'] = 'http://localhost:%d' % port
     p = subprocess.Popen(['roslaunch', '--port', str(port), 'mobile_device_sim', 'office.launch',

@@ -12,7 +12,7 @@ import subprocess
 import time
 
 import pytest
-from sim_world.netutil import free_port as _free_port  # noqa: E402
+from sim_world.netutil import master_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IMU = '/mobile_device/imu_sensor_data'
@@ -35,7 +35,7 @@ def _wait(cond, timeout, what):
 
 
 def _record(seed, rtf, extra_topic=None, sim_seconds=2.0):
-    port = _free_port()
+    port = master_port()
     env = _env(port)
     launch = subprocess.Popen(
         ['roslaunch', '-p', str(port), 'mobile_device_sim', 'office.launch', 'paused:=true',

@@ -11,7 +11,7 @@ import textwrap
 import time
 
 import pytest
-from sim_world.netutil import free_port as _free_port  # noqa: E402
+from sim_world.netutil import master_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -113,7 +113,7 @@ REMOTE = textwrap.dedent('''
 
 @pytest.fixture
 def roscore():
-    port = _free_port()
+    port = master_port()
     env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port,
                ROS_HOSTNAME='localhost')
     core = subprocess.Popen(['roscore', '-p', str(port)], env=env, stdout=subprocess.DEVNULL,

@@ -19,7 +19,7 @@ import pytest
 from pyzbar import pyzbar
 
 from fixtures.xwd import read_xwd
-from sim_world.netutil import free_port as _free_port  # noqa: E402
+from sim_world.netutil import master_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(ROOT, 'build', 'test-output')
@@ -113,7 +113,7 @@ def test_rviz_shows_phone_camera_and_flycam(tmp_path):
                              'tcp'], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     display = ':' + xvfb.stdout.readline().decode().strip()
-    port = _free_port()
+    port = master_port()
     env = dict(os.environ, DISPLAY=display, ROS_MASTER_URI='http://localhost:%d' % port,
                ROS_HOSTNAME='localhost')
     log = open(tmp_path / 'rviz.log', 'w')

@@ -37,7 +37,7 @@ PUB_PY = os.path.join(HERE, 'tinyros', 'image_pub.py')
 
 sys.path.insert(0, os.path.join(HERE, 'tinyros'))
 import hostile_publisher as hp  # noqa: E402
-from sim_world.netutil import free_port as _free_port  # noqa: E402
+from sim_world.netutil import free_port as _free_port, master_port  # noqa: E402
 from fixtures import libfuzzer  # noqa: E402
 
 FRAME_RE = re.compile(r'^frame seq=(\d+) stamp=\S+ frame_id=(\S*) (\d+)x(\d+) (\S+) be=(\d) step=(\d+) '
@@ -174,7 +174,7 @@ def test_fuzz(fuzz_build, target):
 @pytest.fixture(scope='module')
 def master():
     assert os.path.isfile(ECHO), 'tinyros_echo is not built: run tools/setup'
-    port = _free_port()
+    port = master_port()
     uri = 'http://localhost:%d/' % port
     env = dict(os.environ, ROS_MASTER_URI=uri, ROS_HOSTNAME='localhost')
     core = subprocess.Popen(['roscore', '-p', str(port)], env=env, stdout=subprocess.DEVNULL,

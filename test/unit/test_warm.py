@@ -435,7 +435,7 @@ def test_a_warm_master_whose_ports_are_taken_is_one_error_saying_how(monkeypatch
     monkeypatch.setattr(warm, 'master_port', lambda: next(ports))
     cores = []
 
-    class TakenCore(object):
+    class TakenCore(warm.procs.Core):   # failure(): the real wording
         def __init__(self, port, env, run_dir):
             self.port, self.stopped, self.taken = port, False, None
             self.master = types.SimpleNamespace(p=types.SimpleNamespace(poll=lambda: None))
@@ -461,8 +461,8 @@ def test_a_warm_master_whose_ports_are_taken_is_one_error_saying_how(monkeypatch
     runner = types.SimpleNamespace(world_key=lambda: 'office')
     with pytest.raises(RunError) as e:
         host.ready(runner, deadline=0.0)
-    assert str(e.value) == ('no ROS master on port 24002 for the warm world: another master '
-                            '(pid 7) answers there')
+    assert str(e.value) == ("the warm world's ROS master could not take port 24002: another "
+                            'master (pid 7) answers there')
     assert e.value.log_lines == ['rosmaster on 24002']
     assert [c.port for c in cores] == [24001, 24002] and all(c.stopped for c in cores)
     assert launch.stopped

@@ -18,10 +18,10 @@ def _sc(**kw):
     return types.SimpleNamespace(timeout=30.0, phones=[{'ns': 'mobile_device'}], **kw)
 
 
-def _core(master):
-    """A procs.Core around ``master`` (a Proc), without starting anything."""
+def _core(master, port=1):
+    """A procs.Core on ``port`` around ``master`` (a Proc), without starting anything."""
     core = procs.Core.__new__(procs.Core)
-    core.master, core.rosout = master, None
+    core.master, core.rosout, core.port, core.taken = master, None, port, None
     return core
 
 
@@ -238,7 +238,7 @@ def test_the_runs_master_is_the_one_it_started_not_one_on_the_same_port(tmp_path
                                  'XML-RPC server, port 1 is already in use')
     # nothing answers, nothing said: the time waited (not the scenario's timeout)
     said = error('m4.log', 0.5)
-    assert re.fullmatch(r'no ROS master at http://localhost:1 after 0\.[5-9] s', said), said
+    assert re.fullmatch(r'the ROS master did not answer on port 1 in 0\.[5-9] s', said), said
     ws.core = _core(_exited_proc(tmp_path, 1, 'port in use', log='rosmaster.log'))
     fake.pids = [own + 1]
     with pytest.raises(RunError) as e:

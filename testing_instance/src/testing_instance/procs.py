@@ -204,6 +204,16 @@ class Core(object):
         poll(done, deadline, first=0.005)
         return bool(answered)
 
+    def failure(self, waited, whose='the ROS master'):
+        """Why ``wait_up`` returned False, as one sentence on ``whose`` master (the run's,
+        or a warm worker's): how its port was found taken, that it exited, or the ``waited``
+        seconds it did not answer in. The one wording for every caller."""
+        if self.taken:
+            return '%s could not take port %d: %s' % (whose, self.port, self.taken)
+        if not self.alive():
+            return '%s exited while starting (code %s)' % (whose, self.master.p.poll())
+        return '%s did not answer on port %d in %.1f s' % (whose, self.port, waited)
+
     def port_taken(self):
         """The line in which the rosmaster said it could not start its server (its port is
         in use, or another socket error), or None."""

@@ -100,17 +100,16 @@ class WarmHost(object):
                 if pre is None:          # roslaunch's Python start while the master starts
                     pre = self._new_launch(runner)
                 self.core = procs.Core(self.port, self.env(), self.dir)
+                t0 = time.monotonic()
                 if not self._await_core(deadline):
                     # the port was taken between the look and the master's bind (another
                     # master, or a connection's local port): once more on a new port
-                    why = self.core.taken or ('it exited (code %s)' % self.core.master.p.poll()
-                                              if not self.core.alive() else
-                                              'it did not answer in time')
+                    why = self.core.failure(time.monotonic() - t0,
+                                            "the warm world's ROS master")
                     self.core.stop(grace=2.0)
                     if attempt == 2:
                         pre.stop(grace=2.0)
-                        raise RunError('no ROS master on port %d for the warm world: %s'
-                                       % (self.port, why), self.core.log_tail())
+                        raise RunError(why, self.core.log_tail())
                     continue
             runner.port = self.port
             if fresh or key != self.key or self.launch is None or \

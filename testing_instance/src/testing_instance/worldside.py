@@ -157,15 +157,7 @@ class WorldSide(object):
         t0 = time.monotonic()
         if self.core.wait_up(m, deadline):
             return m
-        if not self.core.alive():
-            raise RunError('the ROS master exited while starting (code %s)'
-                           % self.core.master.p.returncode, self.log_tail())
-        if self.core.taken:
-            raise RunError('the ROS master could not take port %d: %s'
-                           % (self.port, self.core.taken), self.log_tail())
-        raise RunError('no ROS master at %s after %.1f s' % (self.master_uri(),
-                                                             time.monotonic() - t0),
-                       self.log_tail())
+        raise RunError(self.core.failure(time.monotonic() - t0), self.log_tail())
 
     def start_master(self, deadline, meanwhile=None):
         """The run's own master and rosout (procs.Core) on a free port (netutil.master_port:

@@ -98,3 +98,68 @@ def test_without_apps_nothing_is_started_or_waited_for(tmp_path, monkeypatch):
     apps.await_ready()            # no master look-ups: they waited for the GIL at start-up
     apps.wait_answered(lambda s: None)                    # returns at once
     apps.check(0.0, lambda: 0.0)
+
+
+class _Graph(object):
+    """A master and the nodes' slave APIs: /reader subscribes the world's /imu (and an
+    /other node's /chat); its side of /imu is connected at once, the world's side from
+    look ``world_from`` on."""
+
+    def __init__(self, world_from):
+        self.looks = 0
+        self.world_from = world_from
+
+    def getSystemState(self):
+        self.looks += 1
+        pubs = [['/imu', ['/sim_world']], ['/chat', ['/other']], ['/reader/out', ['/reader']]]
+        subs = [['/imu', ['/reader']], ['/chat', ['/reader']]]
+        return pubs, subs, []
+
+    def lookupNode(self, name):
+        return name
+
+    def bus_info(self, node):
+        if node == '/reader':
+            return [[1, '/sim_world', 'i', 'TCPROS', '/imu', True],
+                    [2, '/other', 'i', 'TCPROS', '/chat', True]]
+        out = [[7, '/scenario_runner', 'o', 'TCPROS', '/imu', True]]
+        if self.looks >= self.world_from:
+            out.append([8, '/reader', 'o', 'TCPROS', '/imu', True])
+        return out
+
+
+def _await(tmp_path, monkeypatch, graph, world):
+    import xmlrpc.client
+
+    class Proxy(object):
+        def __init__(self, uri):
+            self.uri = uri
+
+        def getBusInfo(self, caller):
+            if self.uri == '/gone':
+                raise OSError('connection refused')
+            return 1, '', graph.bus_info(self.uri)
+    monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
+    apps = Apps(_scenario(tmp_path, [{'script': 'x.py', 'name': 'reader'}]),
+                lambda: dict(os.environ), str(tmp_path), print, lambda: world)
+    t0 = time.monotonic()
+    apps._wait_connections(graph, time.monotonic() + 10.0)
+    return time.monotonic() - t0
+
+
+def test_an_apps_subscription_to_a_world_topic_is_waited_for_on_the_worlds_side(
+        tmp_path, monkeypatch):
+    graph = _Graph(world_from=6)
+    assert _await(tmp_path, monkeypatch, graph, '/sim_world') < 5.0
+    # waited for the world's side: there at look 6, the topics unchanged since look 5
+    assert graph.looks == 6
+    # without that wait it went on at the second look (the app's side, topics unchanged)
+    graph = _Graph(world_from=6)
+    _await(tmp_path, monkeypatch, graph, None)
+    assert graph.looks == 2
+
+
+def test_a_world_node_that_does_not_answer_is_not_waited_for(tmp_path, monkeypatch):
+    graph = _Graph(world_from=99)
+    graph.lookupNode = lambda name: '/gone' if name == '/sim_world' else name
+    assert _await(tmp_path, monkeypatch, graph, '/sim_world') < 5.0 and graph.looks == 2

@@ -4,7 +4,8 @@
 master's start and the world's loading, they talk to no master yet), ``launch`` lets them
 go on once the run's master answers and starts the others; ``await_ready`` waits until
 each is registered with the master and every subscription it has to a published topic is
-connected (so no app misses the first slice);
+connected, on the app's side and, for the world's topics, on the world's (a sensor publishes
+only to the connections its publisher has: so no app misses the first slice);
 ``check`` tells an app that finished (exit code 0, said once) from one that crashed (the
 run's ERROR, with its log tail); ``wait_answered`` waits, after each slice, until every app
 has answered it (appwatch: evidence from /proc, not a quiet period)."""
@@ -22,10 +23,12 @@ INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
 
 
 class Apps(object):
-    def __init__(self, sc, env, run_dir, say):
+    def __init__(self, sc, env, run_dir, say, world=lambda: None):
         """sc: the scenario; env(): the processes' environment (the run's master);
-        run_dir: where each app's log goes (<name>.log); say(line): the run's output."""
+        run_dir: where each app's log goes (<name>.log); say(line): the run's output;
+        world(): the world node's caller id (None: no world node, a replay)."""
         self.sc = sc
+        self.world = world
         self.env = env
         self.run_dir = run_dir
         self.say = say
@@ -116,14 +119,21 @@ class Apps(object):
 
     def _wait_connections(self, master, deadline):
         """Wait until every app's subscriptions to published topics are connected (asked
-        through each node's slave API, getBusInfo), so no app misses the first slice."""
+        through each node's slave API, getBusInfo), so no app misses the first slice: on
+        the app's side, and for a topic the world publishes also on the world's side. The
+        app's side is done once the world's answer to its connection header has arrived;
+        the world adds the connection to its publisher only after writing that answer, and
+        a sensor publishes to the connections its publisher has."""
         from xmlrpc.client import ServerProxy
         apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
         t_start = time.monotonic()
         last_topics = None
+        world = self.world()
         while time.monotonic() < deadline:
             pubs, subs, _srv = master.getSystemState()
             published = {t for t, _n in pubs}
+            of_world = {t for t, ns in pubs if world in ns}
+            served = []                # [the world's outbound connections], once asked
             missing = []
             topics = {(node, t) for node in apps for t, ns in pubs + subs
                       if node in ns and t not in INFRA_TOPICS}
@@ -147,12 +157,30 @@ class Apps(object):
                 have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
                 if want - have:
                     missing.append(node)
+                    continue
+                if want & of_world:
+                    if not served:
+                        served.append(self._served(master, world))
+                    if served[0] is not None and \
+                            {(node, t) for t in want & of_world} - served[0]:
+                        missing.append(node)
             if not missing and topics == last_topics:
                 return
             last_topics = topics
             # a fixed 20 ms, not procs.poll's backoff: "stopped changing" means unchanged
             # over 20 ms of the app's set-up, not over the 1 ms of poll's first look
             time.sleep(0.02)
+
+    @staticmethod
+    def _served(master, world):
+        """{(subscriber, topic)} of the world node's outbound connections (getBusInfo), or
+        None when the world node does not answer (it is gone: the run's checks say so)."""
+        from xmlrpc.client import ServerProxy
+        try:
+            _c, _m, info = ServerProxy(master.lookupNode(world)).getBusInfo('/scenario_runner')
+        except Exception:  # noqa: BLE001 - the world node is gone
+            return None
+        return {(c[1], c[4]) for c in info if len(c) > 4 and c[2] == 'o'}
 
     def check(self, t, fault_t):
         """An app that exited: code 0 has finished (said once, at sim time ``t``); any other

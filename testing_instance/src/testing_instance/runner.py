@@ -93,7 +93,8 @@ class Runner(Actions):
         self.inbox = Inbox()                 # the slice's messages, for the expectations
         self.recorder = Recorder()           # --record
         self.intake = Intake(self.inbox, self.recorder, self.say, self.debug)
-        self.apps = Apps(scenario, self.world.env, self.run_dir, self.say)
+        self.apps = Apps(scenario, self.world.env, self.run_dir, self.say,
+                         lambda: self.intake.world_node)
         self.storage_problems = []      # lines of the recording's storage faults
         self.conditions = Conditions(scenario.timeline)   # the `when`s; what happened when
         self.timed_out = False

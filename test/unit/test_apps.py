@@ -1,6 +1,7 @@
 """The scenario's apps (apps.py), without a master: what is started, an app that finished
 told from one that crashed, a missing script."""
 import os
+import re
 import signal
 import sys
 import time
@@ -128,7 +129,7 @@ class _Graph(object):
         return out
 
 
-def _await(tmp_path, monkeypatch, graph, world):
+def _await(tmp_path, monkeypatch, graph, world, within=10.0, said=None):
     import xmlrpc.client
 
     class Proxy(object):
@@ -141,9 +142,10 @@ def _await(tmp_path, monkeypatch, graph, world):
             return 1, '', graph.bus_info(self.uri)
     monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
     apps = Apps(_scenario(tmp_path, [{'script': 'x.py', 'name': 'reader'}]),
-                lambda: dict(os.environ), str(tmp_path), print, lambda: world)
+                lambda: dict(os.environ), str(tmp_path),
+                print if said is None else said.append, lambda: world)
     t0 = time.monotonic()
-    apps._wait_connections(graph, time.monotonic() + 10.0)
+    apps._wait_connections(graph, time.monotonic() + within)
     return time.monotonic() - t0
 
 
@@ -163,3 +165,12 @@ def test_a_world_node_that_does_not_answer_is_not_waited_for(tmp_path, monkeypat
     graph = _Graph(world_from=99)
     graph.lookupNode = lambda name: '/gone' if name == '/sim_world' else name
     assert _await(tmp_path, monkeypatch, graph, '/sim_world') < 5.0 and graph.looks == 2
+
+
+def test_an_app_not_set_up_by_the_deadline_is_said_and_time_starts(tmp_path, monkeypatch):
+    said = []
+    graph = _Graph(world_from=10 ** 6)            # the world never takes the connection
+    assert _await(tmp_path, monkeypatch, graph, '/sim_world', 0.3, said) < 5.0
+    assert len(said) == 1 and re.fullmatch(
+        r'WARNING app /reader not set up within 0 s of wall time \(subscriptions not '
+        r'connected\); time starts anyway', said[0]), said

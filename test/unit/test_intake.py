@@ -4,6 +4,7 @@ messages told apart, the recording's bytes."""
 import collections
 import json
 import threading
+import time
 
 import rosbag
 import rospy
@@ -217,12 +218,12 @@ def test_string_messages_are_recorded_whole(tmp_path):
         assert [m.data for _tp, m, _t in b.read_messages()] == ['x' * 10000]
 
 
-def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(monkeypatch):
-    """One getSystemState per subscribe that found new topics: it tells the world's topics
-    from the others' (classify) and which the world must accept (wait_publisher_side)."""
+def _graph(monkeypatch, asked, unconnected=(), unaccepted=()):
+    """A master and world node: the world publishes /mobile_device/imu and /mixed (with
+    /other), /app publishes /app/out; the runner's subscriptions to ``unconnected`` never
+    connect, the world never takes its connections to ``unaccepted``. Returns a rospy."""
     import rosgraph
     import xmlrpc.client
-    asked = collections.Counter()
 
     class Master(object):
         def __init__(self, *a, **k):
@@ -246,23 +247,31 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
 
         def getBusInfo(self, me):
             asked['getBusInfo'] += 1
-            return [1, '', [[1, me, 'o', 'TCPROS', '/mobile_device/imu', True],
-                            [2, me, 'o', 'TCPROS', '/mixed', True]]]
+            return [1, '', [[i, me, 'o', 'TCPROS', t, True] for i, t in enumerate(
+                ['/mobile_device/imu', '/mixed']) if t not in unaccepted]]
 
     class Sub(object):
         def __init__(self, topic, cls, cb, **kw):
             self.topic = topic
 
         def get_num_connections(self):
-            return 1
+            return 0 if self.topic in unconnected else 1
 
     class Rospy(FakeRospy):
         Subscriber = Sub
     monkeypatch.setattr(rosgraph, 'Master', Master)
     monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
+    return Rospy()
+
+
+def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(monkeypatch):
+    """One getSystemState per subscribe that found new topics: it tells the world's topics
+    from the others' (classify) and which the world must accept (wait_publisher_side)."""
+    asked = collections.Counter()
+    rospy_ = _graph(monkeypatch, asked)
     it = Intake(Inbox(), Recorder())
     it.world_node = '/sim_world'
-    it.start(Rospy())
+    it.start(rospy_)
     it.topic_types = {'/mobile_device/imu': 'sensor_msgs/Imu', '/app/out': 'std_msgs/String',
                       '/mixed': 'std_msgs/Float32'}
     new = it.subscribe(['/mobile_device/imu', '/app/out', '/mixed', '/not/published'],
@@ -278,6 +287,29 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
     # one master proxy for the intake's look-ups: its connection stays open
     assert it.published_types() == {'/mobile_device/imu': 'sensor_msgs/Imu'}
     assert asked['Master'] == 1
+
+
+def test_a_subscription_that_does_not_connect_is_said_not_passed_over(monkeypatch):
+    """The runner's subscription with no publisher connected, and one the world never took
+    on its side, after CONNECT_WAIT: one WARNING each, naming the topics; the run goes on."""
+    from testing_instance import intake
+    monkeypatch.setattr(intake, 'CONNECT_WAIT', 0.2)
+    said = []
+    it = Intake(Inbox(), Recorder(), said.append)
+    it.world_node = '/sim_world'
+    it.start(_graph(monkeypatch, collections.Counter(), unconnected={'/app/out'},
+                    unaccepted={'/mixed'}))
+    it.topic_types = {'/mobile_device/imu': 'sensor_msgs/Imu', '/app/out': 'std_msgs/String',
+                      '/mixed': 'std_msgs/Float32'}
+    t0 = time.monotonic()
+    assert sorted(it.subscribe(['/mobile_device/imu', '/app/out', '/mixed'])) == [
+        '/app/out', '/mixed', '/mobile_device/imu']
+    assert time.monotonic() - t0 < 5.0
+    assert said == [
+        'WARNING no publisher of /app/out connected to the runner within 0.2 s of wall time; '
+        'their messages until one does are lost',
+        "WARNING the world node /sim_world did not take the runner's connection to /mixed "
+        'within 0.2 s of wall time; its messages until it does are lost']
 
 
 def test_on_new_publisher_hears_this_processes_publishers_only(monkeypatch):

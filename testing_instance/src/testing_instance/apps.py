@@ -129,6 +129,7 @@ class Apps(object):
         t_start = time.monotonic()
         last_topics = None
         world = self.world()
+        missing = []
         while time.monotonic() < deadline:
             pubs, subs, _srv = master.getSystemState()
             published = {t for t, _n in pubs}
@@ -170,6 +171,11 @@ class Apps(object):
             # a fixed 20 ms, not procs.poll's backoff: "stopped changing" means unchanged
             # over 20 ms of the app's set-up, not over the 1 ms of poll's first look
             time.sleep(0.02)
+        # said, not silent: such an app may miss the first messages
+        self.say('WARNING %s not set up within %.0f s of wall time (%s); time starts anyway'
+                 % (', '.join('app %s' % n for n in sorted(missing)) or 'the apps',
+                    time.monotonic() - t_start,
+                    'subscriptions not connected' if missing else 'its topics still changing'))
 
     @staticmethod
     def _served(master, world):

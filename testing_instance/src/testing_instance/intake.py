@@ -24,6 +24,10 @@ import time
 from .procs import poll
 from .recording import EVENTS_TOPIC, HEAVY_TYPES
 
+#: wall s a new subscription of the runner's may take to connect (both sides) before the run
+#: says so and goes on without it
+CONNECT_WAIT = 10.0
+
 __all__ = ['Intake', 'stamp_of']
 
 
@@ -133,12 +137,17 @@ class Intake(object):
         pubs = self._publishers()          # one master round trip serves both
         self.classify(new, apps, pubs)
         if wait_connections:
-            deadline = time.monotonic() + 10.0
+            deadline = time.monotonic() + CONNECT_WAIT
             poll(lambda: all(self.subs[t].get_num_connections() for t in new), deadline)
+            unconnected = [t for t in new if self.subs[t].get_num_connections() == 0]
+            if unconnected:
+                # said, not silent: what they publish until they connect is not in the run
+                self.say('WARNING no publisher of %s connected to the runner within %g s of '
+                         'wall time; their messages until one does are lost'
+                         % (', '.join(unconnected), CONNECT_WAIT))
             self.wait_publisher_side(new, deadline, pubs)
             if self.debug:
-                self.say('subscribed %s; unconnected: %s' % (new, [
-                    t for t in new if self.subs[t].get_num_connections() == 0]))
+                self.say('subscribed %s; unconnected: %s' % (new, unconnected))
         return new
 
     def _publishers(self):
@@ -189,14 +198,20 @@ class Intake(object):
             return
         node = ServerProxy(node_uri)
 
+        missing = [want]
+
         def accepted():
             try:
                 _c, _m, info = node.getBusInfo(me)
             except Exception:  # noqa: BLE001 - the world node is gone: nothing to wait for
                 return True
-            have = {c[4] for c in info if len(c) > 4 and c[2] == 'o' and c[1] == me}
-            return not want - have
-        poll(accepted, deadline, first=0.002)
+            missing[0] = want - {c[4] for c in info
+                                 if len(c) > 4 and c[2] == 'o' and c[1] == me}
+            return not missing[0]
+        if not poll(accepted, deadline, first=0.002):
+            self.say('WARNING the world node %s did not take the runner\'s connection to %s '
+                     'within %g s of wall time; its messages until it does are lost'
+                     % (world, ', '.join(sorted(missing[0])), CONNECT_WAIT))
 
     def undelivered(self):
         """A subscribed topic of which rospy has deserialised more messages than reached the

@@ -91,3 +91,20 @@ def test_no_seed_no_change_and_a_bad_seed_is_one_clear_line(monkeypatch):
         assert str(e) == "MDS_SHUFFLE_SEED must be an integer, got 'abc'"
     else:
         raise AssertionError('a bad seed was taken')
+
+
+def test_a_repetition_that_ran_no_test_breaks_the_bench_with_pytests_words(tmp_path):
+    """No result at all (not even a skip) is the bench's error, not a pass rate of nan."""
+    flaky = _bench()
+    junit = tmp_path / 'none.xml'
+    said = flaky.ran_nothing(flaky.results(str(junit)), [
+        'no tests ran in 0.48s', 'ERROR: file or directory not found: test/x.py'], 7)
+    assert said == ('bench/flaky: a repetition (seed 7) ran no test; pytest said:\n'
+                    '  no tests ran in 0.48s\n'
+                    '  ERROR: file or directory not found: test/x.py')
+    junit.write_text(JUNIT)
+    assert flaky.ran_nothing(flaky.results(str(junit)), [], 7) is None
+    skipped_only = JUNIT.split('<testcase')[0] + '<testcase classname="a" name="t">' \
+        '<skipped message="no qemu"/></testcase></testsuite></testsuites>'
+    junit.write_text(skipped_only)
+    assert flaky.ran_nothing(flaky.results(str(junit)), [], 7) is None   # a skip is a result

@@ -3,12 +3,14 @@ told from one that crashed, a missing script."""
 import os
 import re
 import signal
+import subprocess
 import sys
 import time
 import types
 
 import pytest
 
+from testing_instance.appwatch import AppWatch
 from testing_instance.apps import Apps
 from testing_instance.results import RunError
 
@@ -129,7 +131,8 @@ class _Graph(object):
         return out
 
 
-def _await(tmp_path, monkeypatch, graph, world, within=10.0, said=None):
+def _await(tmp_path, monkeypatch, graph, world, within=10.0, said=None, procs_=None,
+           master_pid=None, limit=2.0):
     import xmlrpc.client
 
     class Proxy(object):
@@ -143,7 +146,8 @@ def _await(tmp_path, monkeypatch, graph, world, within=10.0, said=None):
     monkeypatch.setattr(xmlrpc.client, 'ServerProxy', Proxy)
     apps = Apps(_scenario(tmp_path, [{'script': 'x.py', 'name': 'reader'}]),
                 lambda: dict(os.environ), str(tmp_path),
-                print if said is None else said.append, lambda: world)
+                print if said is None else said.append, lambda: world, lambda: master_pid)
+    apps.watch = AppWatch(procs_ or [], limit=limit)
     t0 = time.monotonic()
     apps._wait_connections(graph, time.monotonic() + within)
     return time.monotonic() - t0
@@ -153,8 +157,9 @@ def test_an_apps_subscription_to_a_world_topic_is_waited_for_on_the_worlds_side(
         tmp_path, monkeypatch):
     graph = _Graph(world_from=6)
     assert _await(tmp_path, monkeypatch, graph, '/sim_world') < 5.0
-    # waited for the world's side: there at look 6, the topics unchanged since look 5
-    assert graph.looks == 6
+    # waited for the world's side: there at look 6; set up at look 7, the topics unchanged
+    # and the app idle in between
+    assert graph.looks == 7
     # without that wait it went on at the second look (the app's side, topics unchanged)
     graph = _Graph(world_from=6)
     _await(tmp_path, monkeypatch, graph, None)
@@ -174,3 +179,92 @@ def test_an_app_not_set_up_by_the_deadline_is_said_and_time_starts(tmp_path, mon
     assert len(said) == 1 and re.fullmatch(
         r'WARNING app /reader not set up within 0 s of wall time \(subscriptions not '
         r'connected\); time starts anyway', said[0]), said
+
+
+class _Late(_Graph):
+    """/reader registers its subscription to /imu only once ``flag`` exists."""
+
+    def __init__(self, flag):
+        _Graph.__init__(self, world_from=0)
+        self.flag = flag
+
+    def getSystemState(self):
+        pubs, subs, srv = _Graph.getSystemState(self)
+        return pubs, subs if os.path.exists(self.flag) else [], srv
+
+
+class _Proc(object):
+    def __init__(self, code):
+        self.p = subprocess.Popen([sys.executable, '-c', code])
+
+    def alive(self):
+        return self.p.poll() is None
+
+
+SPIN_THEN_FLAG = '''import sys, time
+t = time.monotonic()
+while time.monotonic() - t < 0.5:
+    pass
+open(sys.argv[1] if len(sys.argv) > 1 else %r, 'w').close()
+time.sleep(60)
+'''
+
+
+def _spinner(flag, in_thread=False):
+    """A process that computes for 0.5 s and then creates ``flag`` (in a thread of its
+    own with ``in_thread``: a master serves requests in threads, its main thread only
+    looks whether it should stop, and is not watched)."""
+    code = SPIN_THEN_FLAG % str(flag)
+    if in_thread:
+        code = 'import threading\nthreading.Thread(target=exec, args=(%r,)).start()\n' % code
+    p = _Proc(code)
+    time.sleep(0.2)                          # the interpreter is up: it spins now
+    return p
+
+
+def test_an_app_at_work_between_its_registrations_is_not_set_up(tmp_path, monkeypatch):
+    """The app registered its output, then computes (a thread running) before it subscribes:
+    a 20 ms quiet period took it for set up; the evidence waits for its subscription."""
+    flag = tmp_path / 'subscribed'
+    app = _spinner(flag)
+    try:
+        graph = _Late(str(flag))
+        _await(tmp_path, monkeypatch, graph, '/sim_world', procs_=[('/reader', app)])
+        assert flag.exists() and graph.looks >= 3, graph.looks
+    finally:
+        app.p.kill()
+        app.p.wait()
+
+
+def test_an_app_waiting_for_the_master_is_not_set_up(tmp_path, monkeypatch):
+    """The app is idle (its registration sent), the run's master at work on it: waited for."""
+    flag = tmp_path / 'subscribed'
+    app = _Proc('import time; time.sleep(60)')
+    busy_master = _spinner(flag, in_thread=True)
+    try:
+        graph = _Late(str(flag))
+        _await(tmp_path, monkeypatch, graph, '/sim_world', procs_=[('/reader', app)],
+               master_pid=busy_master.p.pid)
+        assert flag.exists(), graph.looks
+    finally:
+        for p in (app, busy_master):
+            p.p.kill()
+            p.p.wait()
+
+
+def test_an_app_at_work_for_good_is_waited_for_at_most_the_watchs_limit(tmp_path, monkeypatch):
+    """Set up (connected, topics unchanged) but never idle (it spins): one WARNING after
+    the app watch's per-slice limit, then time starts (the slices' watch goes on)."""
+    spinning = _Proc('while True:\n    pass')
+    said = []
+    try:
+        graph = _Graph(world_from=0)
+        took = _await(tmp_path, monkeypatch, graph, '/sim_world', said=said,
+                      procs_=[('/reader', spinning)], limit=0.3)
+    finally:
+        spinning.p.kill()
+        spinning.p.wait()
+    assert 0.3 <= took < 5.0
+    assert len(said) == 1 and re.fullmatch(
+        r'WARNING app /reader at work after 0\.\d s with its topics unchanged; time starts',
+        said[0]), said

@@ -23,12 +23,14 @@ INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
 
 
 class Apps(object):
-    def __init__(self, sc, env, run_dir, say, world=lambda: None):
+    def __init__(self, sc, env, run_dir, say, world=lambda: None, master_pid=lambda: None):
         """sc: the scenario; env(): the processes' environment (the run's master);
         run_dir: where each app's log goes (<name>.log); say(line): the run's output;
-        world(): the world node's caller id (None: no world node, a replay)."""
+        world(): the world node's caller id (None: no world node, a replay);
+        master_pid(): the pid of the run's own master (None: not this run's, --attach)."""
         self.sc = sc
         self.world = world
+        self.master_pid = master_pid
         self.env = env
         self.run_dir = run_dir
         self.say = say
@@ -118,64 +120,93 @@ class Apps(object):
         self._wait_connections(m, deadline)
 
     def _wait_connections(self, master, deadline):
-        """Wait until every app's subscriptions to published topics are connected (asked
-        through each node's slave API, getBusInfo), so no app misses the first slice: on
-        the app's side, and for a topic the world publishes also on the world's side. The
-        app's side is done once the world's answer to its connection header has arrived;
-        the world adds the connection to its publisher only after writing that answer, and
-        a sensor publishes to the connections its publisher has."""
-        from xmlrpc.client import ServerProxy
-        apps = {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
+        """Wait until every app is set up: each subscription of its to a published topic
+        connected (asked through each node's slave API, getBusInfo), so no app misses the
+        first slice, and then, by evidence, nothing more coming: the apps' topics unchanged
+        from one look to the next while the apps and the run's master did nothing in
+        between (AppWatch.ran_since: no thread of theirs ran, nothing queued on their
+        connections). A fixed quiet period (20 ms of unchanged topics, until 2026-11-29)
+        took an app starved of the CPU between its publisher and its subscribers, or waiting
+        for the master's answer to its registration, for one that was set up. Connected
+        means on the app's side and, for a topic the world publishes, on the world's side
+        too: the app's side is done once the world's answer to its connection header has
+        arrived, the world adds the connection to its publisher only after writing that
+        answer, and a sensor publishes to the connections its publisher has."""
         t_start = time.monotonic()
-        last_topics = None
-        world = self.world()
-        missing = []
+        last_topics, missing, before, settled = None, [], None, None
+        master_pid = self.master_pid()
+        extra = [('the ROS master (pid %d)' % master_pid, master_pid)] if master_pid else []
         while time.monotonic() < deadline:
+            # what the apps and the master did since the last look (before this look's
+            # calls, which make the master run)
+            busy = self.watch.ran_since(before, extra) if before is not None else True
             pubs, subs, _srv = master.getSystemState()
-            published = {t for t, _n in pubs}
-            of_world = {t for t, ns in pubs if world in ns}
-            served = []                # [the world's outbound connections], once asked
-            missing = []
-            topics = {(node, t) for node in apps for t, ns in pubs + subs
+            topics = {(node, t) for node in self._nodes() for t, ns in pubs + subs
                       if node in ns and t not in INFRA_TOPICS}
-            for node in apps:
-                # an app is set up when it has its own topics (rospy registers /rosout and
-                # /clock at init_node, before the app's code runs; 5 s grace for apps
-                # without topics) and they stopped changing
-                if not any(n == node for n, _t in topics) and \
-                        time.monotonic() - t_start < 5.0:
-                    missing.append(node)
-                    continue
-                want = {t for t, ns in subs if node in ns and t in published}
-                if not want:
-                    continue
-                try:
-                    code, _msg, info = ServerProxy(master.lookupNode(node)).getBusInfo(
-                        '/scenario_runner')
-                except Exception:  # noqa: BLE001 - node not answering yet
-                    missing.append(node)
-                    continue
-                have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
-                if want - have:
-                    missing.append(node)
-                    continue
-                if want & of_world:
-                    if not served:
-                        served.append(self._served(master, world))
-                    if served[0] is not None and \
-                            {(node, t) for t in want & of_world} - served[0]:
-                        missing.append(node)
-            if not missing and topics == last_topics:
+            if missing or topics != last_topics:
+                missing = self._missing(master, pubs, subs, topics, t_start)
+                settled = None
+            elif not busy:
+                return
+            elif settled is None:
+                settled = time.monotonic()
+            elif time.monotonic() - settled >= self.watch.limit:
+                # connected, its topics unchanged, yet at work (a loop by the wall clock,
+                # a spin): the slices' app watch takes it from here, as it does any app
+                # that never falls idle
+                self.say('WARNING %s at work after %.1f s with its topics unchanged; time '
+                         'starts' % (', '.join('app %s' % n for n, _w in busy),
+                                     time.monotonic() - settled))
                 return
             last_topics = topics
-            # a fixed 20 ms, not procs.poll's backoff: "stopped changing" means unchanged
-            # over 20 ms of the app's set-up, not over the 1 ms of poll's first look
+            before = self.watch.reading(extra)       # after this look's calls
+            # a fixed 20 ms between looks, not procs.poll's backoff: an app that sleeps a
+            # few ms between its registrations is not taken for set up either
             time.sleep(0.02)
         # said, not silent: such an app may miss the first messages
         self.say('WARNING %s not set up within %.0f s of wall time (%s); time starts anyway'
                  % (', '.join('app %s' % n for n in sorted(missing)) or 'the apps',
                     time.monotonic() - t_start,
-                    'subscriptions not connected' if missing else 'its topics still changing'))
+                    'subscriptions not connected' if missing else
+                    'still registering or at work'))
+
+    def _nodes(self):
+        return {'/' + app.get('name', 'app%d' % i) for i, app in enumerate(self.sc.apps)}
+
+    def _missing(self, master, pubs, subs, topics, t_start):
+        """The apps whose subscriptions to published topics are not connected yet (both
+        sides, see _wait_connections), or that have no topics of their own yet (rospy
+        registers /rosout and /clock at init_node, before the app's code runs; 5 s grace
+        for apps without topics)."""
+        from xmlrpc.client import ServerProxy
+        world = self.world()
+        published = {t for t, _n in pubs}
+        of_world = {t for t, ns in pubs if world in ns}
+        served = []                # [the world's outbound connections], once asked
+        missing = []
+        for node in self._nodes():
+            if not any(n == node for n, _t in topics) and time.monotonic() - t_start < 5.0:
+                missing.append(node)
+                continue
+            want = {t for t, ns in subs if node in ns and t in published}
+            if not want:
+                continue
+            try:
+                code, _msg, info = ServerProxy(master.lookupNode(node)).getBusInfo(
+                    '/scenario_runner')
+            except Exception:  # noqa: BLE001 - node not answering yet
+                missing.append(node)
+                continue
+            have = {c[4] for c in info if len(c) > 4 and c[2] in ('i', 'in')}
+            if want - have:
+                missing.append(node)
+                continue
+            if want & of_world:
+                if not served:
+                    served.append(self._served(master, world))
+                if served[0] is not None and {(node, t) for t in want & of_world} - served[0]:
+                    missing.append(node)
+        return missing
 
     @staticmethod
     def _served(master, world):

@@ -94,7 +94,8 @@ class Runner(Actions):
         self.recorder = Recorder()           # --record
         self.intake = Intake(self.inbox, self.recorder, self.say, self.debug)
         self.apps = Apps(scenario, self.world.env, self.run_dir, self.say,
-                         lambda: self.intake.world_node)
+                         lambda: self.intake.world_node,
+                         lambda: self.world.watch.get(procs.MASTER))
         self.storage_problems = []      # lines of the recording's storage faults
         self.conditions = Conditions(scenario.timeline)   # the `when`s; what happened when
         self.timed_out = False

@@ -155,7 +155,8 @@ class Apps(object):
                 # a spin): the slices' app watch takes it from here, as it does any app
                 # that never falls idle
                 self.say('WARNING %s at work after %.1f s with its topics unchanged; time '
-                         'starts' % (', '.join('app %s' % n for n, _w in busy),
+                         'starts' % (', '.join('app %s' % n if n.startswith('/') else n
+                                               for n, _w in busy),
                                      time.monotonic() - settled))
                 return
             last_topics = topics

@@ -1,5 +1,7 @@
 """The scenario's apps (apps.py), without a master: what is started, an app that finished
-told from one that crashed, a missing script."""
+told from one that crashed, a missing script, and when the apps count as set up (connected
+on both sides, then idle by evidence, with the run's master: real processes stand in for
+them)."""
 import os
 import re
 import signal

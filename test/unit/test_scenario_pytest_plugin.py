@@ -75,3 +75,8 @@ def test_master_ports_follow_xdist_s_own_worker_id(monkeypatch):
     worker.workerinput = {'workerid': 'gw1'}
     port = pp.worker_port(worker)
     assert pp.PORT_BASE + 2 * pp.PORT_SPAN <= port < pp.PORT_BASE + 3 * pp.PORT_SPAN, port
+    # every worker's range lies below the runs' own random draws (netutil.master_port)
+    from sim_world.netutil import MASTER_PORTS
+    worker.workerinput = {'workerid': 'gw40'}
+    assert pp.PORT_BASE <= pp.worker_port(worker) < MASTER_PORTS[0]
+    assert pp.PORT_BASE + pp.PORT_SPAN * pp.PORT_RANGES <= MASTER_PORTS[0]

@@ -24,7 +24,7 @@ import time
 __all__ = ['bindable', 'free_port', 'master_port', 'wait_for_service']
 
 #: where master_port draws from: below the ephemeral range (Linux's default 32768-60999),
-#: above the test plugin's per-worker ranges (testing_instance.pytest_plugin: 20000 + 1000k)
+#: above the test plugin's per-worker ranges (testing_instance.pytest_plugin: 20000-23999)
 MASTER_PORTS = (24000, 32767)
 
 

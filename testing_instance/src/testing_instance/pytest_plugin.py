@@ -23,7 +23,11 @@ import pytest
 
 _TOP_DURATION = re.compile(r'^duration\s*:', re.M)
 _TOP_BODY = re.compile(r'^(expect|timeline)\s*:', re.M)
-PORT_BASE, PORT_SPAN = 20000, 1000
+#: master ports of the scenario items: process k (0 without xdist, N + 1 for worker gwN) takes
+#: them from PORT_BASE + PORT_SPAN * (k % PORT_RANGES), all of them below the runs' own
+#: random draws (sim_world.netutil.MASTER_PORTS, from 24000 on); a 17th worker shares the
+#: first range, and a port taken meanwhile is retried on a new one (testing_instance.procs)
+PORT_BASE, PORT_SPAN, PORT_RANGES = 20000, 250, 16
 
 
 def is_scenario(path):
@@ -111,7 +115,7 @@ def worker_port(config):
     PYTEST_XDIST_WORKER variable, which a pytest started inside an xdist worker inherits."""
     wid = str(getattr(config, 'workerinput', {}).get('workerid', ''))
     k = int(wid[2:]) + 1 if wid.startswith('gw') and wid[2:].isdigit() else 0
-    base = PORT_BASE + PORT_SPAN * k
+    base = PORT_BASE + PORT_SPAN * (k % PORT_RANGES)
     for _ in range(PORT_SPAN):
         port = base + _counter[0] % PORT_SPAN
         _counter[0] += 1

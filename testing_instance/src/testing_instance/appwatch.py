@@ -126,10 +126,23 @@ class AppWatch(object):
         return False
 
     @staticmethod
-    def _read(pids):
-        """(state letters, {(pid, tid): schedstat}) of every thread of ``pids``."""
-        runs = {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()}
+    def _read(pids, main=True):
+        """(state letters, {(pid, tid): schedstat}) of every thread of ``pids`` (without
+        each process's main thread unless ``main``)."""
+        runs = {(pid, tid): r for pid in pids for tid, r in procs.thread_runs(pid).items()
+                if main or tid != pid}
         return [st for st, _ran in runs.values()], {k: ran for k, (_st, ran) in runs.items()}
+
+    @staticmethod
+    def _queued(pids, queues):
+        """(socket inodes, bytes queued to send, bytes to read: received or on their way
+        from the other end) of the processes ``pids`` (queues: procs.tcp_queues())."""
+        inodes = set()
+        for pid in pids:
+            inodes |= procs.socket_inodes(pid)
+        tx = sum(queues.get(i, (0, 0))[0] for i in inodes)
+        rx = sum(queues.get(i, (0, 0))[1] + queues.inbound(i) for i in inodes)
+        return inodes, tx, rx
 
     @staticmethod
     def _working(states):
@@ -194,12 +207,7 @@ class AppWatch(object):
             pids = procs.descendants(p.p.pid, kids)
             states, ran = self._read(pids)
             ran_before, self.ran[name] = self.ran.get(name), ran
-            inodes = set()
-            for pid in pids:
-                inodes |= procs.socket_inodes(pid)
-            tx = sum(queues.get(i, (0, 0))[0] for i in inodes)
-            rx = sum(queues.get(i, (0, 0))[1] for i in inodes)
-            rx += sum(queues.inbound(i) for i in inodes)
+            inodes, tx, rx = self._queued(pids, queues)
             stopped = bool(states) and all(s in ('T', 't') for s in states)
             # a connection it does not read: bytes wait on it at every look
             seen = self.stuck.setdefault(name, {})
@@ -245,7 +253,7 @@ class AppWatch(object):
         ``ran_since`` compares with. Not ``others()``: a paused world node runs now and then
         (its paused publishing), and whether it took an app's connection is asked of it
         (Apps._missing)."""
-        return dict((name, ran) for name, _states, ran in self._setup_threads(serving))
+        return {name: ran for name, _pids, _app, _states, ran in self._setup_threads(serving)}
 
     def ran_since(self, before, serving=()):
         """[(name, why)] of what was not idle since ``before`` (a ``reading``): a thread
@@ -254,38 +262,32 @@ class AppWatch(object):
         apps and ``serving`` did nothing in between."""
         out = []
         queues = None
-        kids = self.tree.children()
-        for name, states, ran in self._setup_threads(serving, kids):
+        for name, pids, is_app, states, ran in self._setup_threads(serving):
             why = self._working(states)
             if why is None and ran != before.get(name):
                 why = RAN
-            if why is None and name in dict(self.apps):
+            if why is None and is_app:
                 queues = queues if queues is not None else procs.tcp_queues()
-                inodes = set()
-                for pid in procs.descendants(dict(self.apps)[name].p.pid, kids):
-                    inodes |= procs.socket_inodes(pid)
-                queued = sum(sum(queues.get(i, (0, 0))) + queues.inbound(i) for i in inodes)
-                why = '%d bytes queued' % queued if queued else None
+                _inodes, tx, rx = self._queued(pids, queues)
+                why = '%d bytes queued' % (tx + rx) if tx or rx else None
             if why is not None:
                 out.append((name, why))
         return out
 
-    def _setup_threads(self, serving, kids=None):
-        """[(name, thread states, {(pid, tid): schedstat})] of the live apps and of the
-        threads of ``serving`` but their main thread: rosmaster's wakes every 0.1 s to see
-        whether it should stop; its requests are served by the other threads. Its sockets
-        are not looked at: counted with their other ends, they showed 400-1212 bytes at
-        look after look of a run's set-up while the master did nothing."""
-        kids = kids if kids is not None else self.tree.children()
+    def _setup_threads(self, serving):
+        """[(name, pids, is an app, thread states, {(pid, tid): schedstat})] of the live
+        apps and of ``serving`` without its main thread: rosmaster's wakes every 0.1 s to
+        see whether it should stop; its requests are served by the other threads. Its
+        sockets are not looked at: counted with their other ends, they showed 400-1212
+        bytes at look after look of a run's set-up while the master did nothing."""
+        kids = self.tree.children()
         out = []
         for name, p in self.apps:
             if p.alive():
-                states, ran = self._read(procs.descendants(p.p.pid, kids))
-                out.append((name, states, ran))
+                pids = procs.descendants(p.p.pid, kids)
+                out.append((name, pids, True) + self._read(pids))
         for name, pid in serving:
-            runs = {(pid, tid): r for tid, r in procs.thread_runs(pid).items() if tid != pid}
-            out.append((name, [st for st, _r in runs.values()],
-                        {k: r for k, (_st, r) in runs.items()}))
+            out.append((name, [pid], False) + self._read([pid], main=False))
         return out
 
     def wait(self, wake):

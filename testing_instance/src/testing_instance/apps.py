@@ -14,6 +14,7 @@ import os
 import time
 
 from .appwatch import AppHung, AppWatch
+from .intake import outbound
 from .procs import PreApp, Proc, poll, tail
 from .results import RunError
 
@@ -215,10 +216,9 @@ class Apps(object):
         None when the world node does not answer (it is gone: the run's checks say so)."""
         from xmlrpc.client import ServerProxy
         try:
-            _c, _m, info = ServerProxy(master.lookupNode(world)).getBusInfo('/scenario_runner')
+            return outbound(ServerProxy(master.lookupNode(world)), '/scenario_runner')
         except Exception:  # noqa: BLE001 - the world node is gone
             return None
-        return {(c[1], c[4]) for c in info if len(c) > 4 and c[2] == 'o'}
 
     def check(self, t, fault_t):
         """An app that exited: code 0 has finished (said once, at sim time ``t``); any other

@@ -28,7 +28,15 @@ from .recording import EVENTS_TOPIC, HEAVY_TYPES
 #: says so and goes on without it
 CONNECT_WAIT = 10.0
 
-__all__ = ['Intake', 'stamp_of']
+__all__ = ['Intake', 'outbound', 'stamp_of']
+
+
+def outbound(node, caller):
+    """{(subscriber, topic)} of a node's outbound connections: its publishers' subscribers
+    as the node itself counts them (``node``: an xmlrpc ServerProxy of its slave API,
+    asked getBusInfo as ``caller``). Raises what the call raises (the node is gone)."""
+    _c, _m, info = node.getBusInfo(caller)
+    return {(c[1], c[4]) for c in info if len(c) > 4 and c[2] == 'o'}
 
 
 def stamp_of(msg):
@@ -202,11 +210,9 @@ class Intake(object):
 
         def accepted():
             try:
-                _c, _m, info = node.getBusInfo(me)
+                missing[0] = want - {t for sub, t in outbound(node, me) if sub == me}
             except Exception:  # noqa: BLE001 - the world node is gone: nothing to wait for
                 return True
-            missing[0] = want - {c[4] for c in info
-                                 if len(c) > 4 and c[2] == 'o' and c[1] == me}
             return not missing[0]
         if not poll(accepted, deadline, first=0.002):
             self.say('WARNING the world node %s did not take the runner\'s connection to %s '

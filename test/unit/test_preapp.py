@@ -5,6 +5,7 @@ import json
 import os
 import signal
 import socket
+import subprocess
 import sys
 import time
 
@@ -183,3 +184,65 @@ def test_without_go_the_script_never_runs(tmp_path):
     q.stop(grace=5.0)                   # at once
     assert not q.alive()
     assert sys.executable == q.cmd[0]
+
+
+RUNNER = '''\
+import sys, time
+sys.path.insert(0, %r)
+from testing_instance import procs
+p = procs.PreApp(sys.argv[1], [], None, sys.argv[2])
+p.go(sys.argv[3])
+print(p.p.pid, flush=True)
+time.sleep(600)
+'''
+
+
+def test_an_app_whose_shutdown_hangs_goes_a_grace_after_its_runner_is_killed(tmp_path):
+    """Found in CI: run_scenario SIGKILLed while its app was in a call to the master left the
+    app running for good. The parent-death SIGTERM ran rospy's handler in the app's main
+    thread, whose shutdown waited for the lock of the master proxy that thread held. Here
+    the master accepts the app's call and never answers: its shutdown hangs too."""
+    from testing_instance import preapp
+    f = _app(tmp_path, 'import rospy\nrospy.init_node("stuck")\nrospy.spin()\n')
+    master = _listening()
+    master.settimeout(30)
+    log = tmp_path / 'app.log'
+    src = os.path.dirname(os.path.dirname(os.path.abspath(procs.__file__)))
+    runner = subprocess.Popen([sys.executable, '-c', RUNNER % src, str(f), str(log),
+                               _uri(master)], stdout=subprocess.PIPE, text=True)
+    app = int(runner.stdout.readline())
+    held = []
+    try:
+        held.append(master.accept()[0])              # the app is in its call to the master
+        time.sleep(0.5)
+        assert procs.alive(app)
+        runner.kill()
+        runner.wait()
+        gone = time.monotonic()
+        deadline = gone + preapp.GRACE + 20
+        while procs.alive(app) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        took = time.monotonic() - gone
+        assert not procs.alive(app), log.read_text()
+    finally:
+        if procs.alive(app):
+            os.kill(app, signal.SIGKILL)
+        for s in held:
+            s.close()
+        master.close()
+    # it did hang: it went by the watch, once the grace was over
+    assert took >= preapp.GRACE - 0.5
+    assert 'the runner is gone and the app did not end in 5 s' in log.read_text()
+
+
+def test_a_finished_runner_keeps_the_apps_stdin_to_itself(tmp_path):
+    """The script reads /dev/null, not the runner's pipe; the runner's end closes at finish."""
+    f = _app(tmp_path, 'import sys\nprint(repr(sys.stdin.read()))\n')
+    p = procs.PreApp(str(f), [], dict(os.environ, PYTHONUNBUFFERED='1'),
+                     str(tmp_path / 'a.log'))
+    p.go('http://127.0.0.1:1')
+    assert p.p.wait(30) == 0
+    assert not p.p.stdin.closed          # open while the app runs
+    p.finish(time.monotonic())
+    assert p.p.stdin.closed
+    assert (tmp_path / 'a.log').read_text() == "''\n"

@@ -14,6 +14,16 @@ before that. Then it runs the script as ``python3 SCRIPT ARGS`` would (``runpy``
 ``__main__``, its folder first on ``sys.path``). An empty line, a closed stdin or SIGINT
 before that (the run ended first) ends it quietly with exit code 0.
 
+From then on the runner's end of stdin stays open for as long as the runner lives; the
+script gets /dev/null as its stdin. When the runner dies (SIGKILLed: a CI job cancelled, a
+Ray node removed) the app gets SIGTERM (procs.Proc's parent-death signal), and rospy shuts
+it down; but rospy's signal handler deadlocks when the signal lands while the main thread is
+in a call to the master (``rospy.core._LockedServerProxy`` holds a plain lock around each
+call, and the handler's ``RegManager.cleanup`` takes it again, in the same thread). So a
+thread here waits on stdin: once it closes, the app has :data:`GRACE` s to end, and then its
+process group (the app and whatever it started) is SIGKILLed, as ``procs.Proc.finish`` does
+when the runner lives.
+
 A module that fails to import here is left for the script, which then fails as it would
 have failed on its own.
 """
@@ -23,7 +33,9 @@ import os
 import signal
 import sys
 
-__all__ = ['leading_imports', 'outside', 'until_told', 'main']
+__all__ = ['GRACE', 'leading_imports', 'outside', 'until_told', 'watch_runner', 'main']
+
+GRACE = 5.0     # s an app has to end once its runner is gone, before its group is SIGKILLed
 
 
 def leading_imports(path):
@@ -99,12 +111,46 @@ def _import_libraries(script, here):
                 pass
 
 
+def watch_runner(grace=GRACE):
+    """Keep the runner's end of stdin (fd 0) on a descriptor of its own, give fd 0
+    /dev/null, and start a daemon thread blocked reading it (no wake-ups: to the run's app
+    watch the app stays idle). When it closes (the runner died or finished with this app),
+    the process group is SIGKILLed if this process is still alive ``grace`` s later."""
+    import threading
+    import time
+    fd = os.dup(0)                                # not inherited by the app's children
+    null = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(null, 0)
+    os.close(null)
+
+    def wait():
+        try:
+            while os.read(fd, 4096):
+                pass
+        except OSError:
+            pass
+        time.sleep(grace)
+        try:
+            sys.stderr.write('preapp: the runner is gone and the app did not end in %g s '
+                             '(rospy\'s shutdown deadlocks when the signal lands during a call '
+                             'to the master): SIGKILL to its process group\n' % grace)
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+        os.killpg(os.getpgrp(), signal.SIGKILL)
+
+    t = threading.Thread(target=wait, name='preapp-runner-watch', daemon=True)
+    t.start()
+    return t
+
+
 def main():
     script = sys.argv[1]
     sys.argv = sys.argv[1:]                   # as `python3 SCRIPT ARGS` has them
     here = os.path.dirname(os.path.abspath(script))
     sys.path[0] = here
     until_told(lambda: _import_libraries(script, here))
+    watch_runner()
     import runpy
     runpy.run_path(script, run_name='__main__')
 

@@ -110,6 +110,11 @@ class Proc(object):
                     pass
                 self.p.wait(5)
         self.log.close()
+        if self.p.stdin is not None:
+            try:
+                self.p.stdin.close()
+            except OSError:
+                pass
 
 
 class _TimedTransport(xmlrpc.client.Transport):
@@ -290,11 +295,18 @@ class _Told(Proc):
     def __init__(self, cmd, env, log_path, cwd=None):
         Proc.__init__(self, cmd, env, log_path, cwd=cwd, stdin=subprocess.PIPE)
 
+    KEEP_STDIN = False
+
     def go(self, master_uri):
-        """Go on, on master_uri (the run's own master, up and checked)."""
+        """Go on, on master_uri (the run's own master, up and checked). A PreApp's stdin
+        then stays open until :meth:`finish` (preapp.watch_runner: its closing without a
+        finish means the runner died)."""
         try:
             self.p.stdin.write((master_uri + '\n').encode())
-            self.p.stdin.close()
+            if self.KEEP_STDIN:
+                self.p.stdin.flush()
+            else:
+                self.p.stdin.close()
         except OSError:
             pass          # it exited meanwhile: the run's check reports it with its log
 
@@ -318,7 +330,10 @@ PREAPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'preapp.py')
 class PreApp(_Told):
     """A scenario's Python app (``script`` with its command-line ``args``), started before
     the run's world is ready: it imports what the script imports at its top, then waits for
-    :meth:`go` and runs the script (testing_instance.preapp)."""
+    :meth:`go` and runs the script (testing_instance.preapp). Its stdin stays open while
+    it runs: it is SIGKILLed a few seconds after the runner dies (preapp.watch_runner)."""
+
+    KEEP_STDIN = True
 
     def __init__(self, script, args, env, log_path, cwd=None):
         _Told.__init__(self, [sys.executable, PREAPP, script] + list(args), env, log_path,

@@ -203,7 +203,10 @@ def test_an_app_whose_shutdown_hangs_goes_a_grace_after_its_runner_is_killed(tmp
     thread, whose shutdown waited for the lock of the master proxy that thread held. Here
     the master accepts the app's call and never answers: its shutdown hangs too."""
     from testing_instance import preapp
-    f = _app(tmp_path, 'import rospy\nrospy.init_node("stuck")\nrospy.spin()\n')
+    kid = tmp_path / 'kid'
+    f = _app(tmp_path, 'import subprocess\nimport rospy\n'        # a child of its own too
+             'open(%r, "w").write(str(subprocess.Popen(["sleep", "600"]).pid))\n'
+             'rospy.init_node("stuck")\nrospy.spin()\n' % str(kid))
     master = _listening()
     master.settimeout(30)
     log = tmp_path / 'app.log'
@@ -224,6 +227,11 @@ def test_an_app_whose_shutdown_hangs_goes_a_grace_after_its_runner_is_killed(tmp
             time.sleep(0.05)
         took = time.monotonic() - gone
         assert not procs.alive(app), log.read_text()
+        child = int(kid.read_text())
+        deadline = time.monotonic() + 10
+        while procs.alive(child) and time.monotonic() < deadline:
+            time.sleep(0.05)                             # (a zombie until init reaps it)
+        assert not procs.alive(child)                    # its group went with it
     finally:
         if procs.alive(app):
             os.kill(app, signal.SIGKILL)

@@ -137,7 +137,9 @@ def watch_runner(grace=GRACE):
             sys.stderr.flush()
         except (OSError, ValueError):
             pass
-        os.killpg(os.getpgrp(), signal.SIGKILL)
+        if os.getpgrp() == os.getpid():           # its own group (procs.Proc): the app's
+            os.killpg(os.getpgrp(), signal.SIGKILL)
+        os.kill(os.getpid(), signal.SIGKILL)      # started some other way: itself alone
 
     t = threading.Thread(target=wait, name='preapp-runner-watch', daemon=True)
     t.start()

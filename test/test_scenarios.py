@@ -333,3 +333,36 @@ def test_the_worlds_answers_to_apps_are_timed_where_the_world_sent_them(tmp_path
     assert connected == [1.1, 3.6], connected            # the NFC ticks after each touch
     assert got['/mobile_device/nfc/incoming'] == [(1.1, 'OK'), (3.6, 'OK')], got
     assert [t for t, _d in got['/mobile_device_b/nfc/incoming']] == [1.1, 3.6], got
+
+
+NODE_APP = """\
+name: node_app
+seed: 1
+real_time_factor: 0
+duration: 2.0
+world: {launch: office, args: {camera_rate: 10}}
+apps:
+  - {name: reader, node: %s,
+     params: {image_topic: /mobile_device/image_raw, barcode_topic: /reader/barcode}}
+expect:
+  - name: node_decodes
+    topic: /reader/barcode
+    field: data
+    eventually: {equals: "QR-Code,http://vmi.lmt.ei.tum.de"}
+"""
+
+
+def test_a_node_app_runs_as_roslaunch_would_run_it(tmp_path):
+    """``node: pkg/type``: the package's barcode_reader (a Python node, run as a script app
+    is) decodes the thesis's QR code from the phone's camera; a node that is not there is
+    the run's ERROR with rosrun's words."""
+    f = tmp_path / 'node_app.yaml'
+    f.write_text(NODE_APP % 'mobile_device_sim/barcode_reader')
+    rc, out = run(f)
+    assert rc == 0, out
+    assert re.search(r'^PASS node_decodes:', out, re.M), out
+    f.write_text(NODE_APP % 'mobile_device_sim/no_such_node_x')
+    rc, out = run(f)
+    assert rc == 2, out
+    assert re.search(r'^ERROR app /reader exited at start', out, re.M), out
+    assert 'no_such_node_x' in out, out

@@ -270,3 +270,38 @@ def test_an_app_at_work_for_good_is_waited_for_at_most_the_watchs_limit(tmp_path
     assert len(said) == 1 and re.fullmatch(
         r'WARNING app /reader at work after 0\.\d s with its topics unchanged; time starts',
         said[0]), said
+
+
+def test_a_python_node_app_is_found_as_roslaunch_finds_it():
+    from testing_instance.apps import python_node
+    found = python_node('mobile_device_sim', 'barcode_reader')
+    assert found is not None and os.path.basename(found) == 'barcode_reader'
+    assert open(found, 'rb').readline().startswith(b'#!') and os.access(found, os.X_OK)
+    assert python_node('rosout', 'rosout') is None                # compiled: rosrun runs it
+    assert python_node('no_such_package_x', 'node') is None        # rosrun says why
+    assert python_node('mobile_device_sim', 'no_such_node_x') is None
+
+
+def test_a_python_node_app_runs_as_a_script_app_and_another_through_rosrun(tmp_path,
+                                                                          monkeypatch):
+    import testing_instance.apps as apps_mod
+    _script(tmp_path, 'node.py', 'print(" ".join(sys.argv)); sys.stdout.flush()')
+    monkeypatch.setattr(apps_mod, 'python_node', lambda pkg, typ: str(tmp_path / 'node.py')
+                        if typ == 'py_node' else None)
+    sc = _scenario(tmp_path, [{'node': 'pkg/py_node', 'name': 'a', 'params': {'k': 1}},
+                              {'node': 'pkg/c_node', 'name': 'b'}])
+    apps = Apps(sc, lambda: dict(os.environ), str(tmp_path), [].append)
+    apps.prestart()
+    assert [n for n, _p in apps.procs] == ['/a']           # started with the run
+    assert 'preapp.py' in apps.procs[0][1].cmd[1]
+    monkeypatch.setattr(apps_mod, 'Proc', lambda cmd, *a, **k: types.SimpleNamespace(
+        cmd=cmd, alive=lambda: False))
+    monkeypatch.setattr(apps_mod, 'AppWatch', lambda *a, **k: object())
+    started = apps.launch(lambda q: None)
+    assert started[1].cmd == ['rosrun', 'pkg', 'c_node', '__name:=b']
+    deadline = time.monotonic() + 30
+    while started[0].alive() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    started[0].finish(time.monotonic())
+    assert open(str(tmp_path / 'a.log')).read().strip() == \
+        '%s _k:=1 __name:=a' % (tmp_path / 'node.py')

@@ -18,7 +18,29 @@ from .intake import outbound
 from .procs import PreApp, Proc, poll, tail
 from .results import RunError
 
-__all__ = ['Apps']
+__all__ = ['Apps', 'python_node']
+
+
+def python_node(pkg, node_type):
+    """The Python script a ``node: PKG/TYPE`` app runs (the executable roslaunch would
+    start for ``<node pkg type>``: roslib.packages.find_node's first), or None when it is
+    not Python (a compiled node, a shell wrapper) or not found (rosrun then says why, in
+    the app's log). A Python node runs as a ``script:`` app does (procs.PreApp): started
+    with the run, and gone a few seconds after a killed runner even when rospy's shutdown
+    hangs (preapp.watch_runner), where rosrun's exec of it would leave it running."""
+    try:
+        import roslib.packages
+        found = roslib.packages.find_node(pkg, node_type)
+    except Exception:  # noqa: BLE001 - no such package: rosrun reports it
+        return None
+    if not found:
+        return None
+    try:
+        with open(found[0], 'rb') as f:
+            first = f.readline(200)
+    except OSError:
+        return None
+    return found[0] if first.startswith(b'#!') and b'python' in first else None
 
 INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
 
@@ -62,7 +84,9 @@ class Apps(object):
                 plan.append(('/' + name, script, args))
             else:
                 pkg, _, typ = app['node'].partition('/')
-                plan.append(('/' + name, None, ['rosrun', pkg, typ] + args))
+                script = python_node(pkg, typ)
+                plan.append(('/' + name, script, args) if script else
+                            ('/' + name, None, ['rosrun', pkg, typ] + args))
         self._plan = plan
         for name, script, args in plan:
             if script is not None:

@@ -11,6 +11,7 @@ run's ERROR, with its log tail); ``wait_answered`` waits, after each slice, unti
 has answered it (appwatch: evidence from /proc, not a quiet period)."""
 import json
 import os
+import re
 import time
 
 from .appwatch import AppHung, AppWatch
@@ -22,25 +23,43 @@ __all__ = ['Apps', 'python_node']
 
 
 def python_node(pkg, node_type):
-    """The Python script a ``node: PKG/TYPE`` app runs (the executable roslaunch would
-    start for ``<node pkg type>``: roslib.packages.find_node's first), or None when it is
-    not Python (a compiled node, a shell wrapper) or not found (rosrun then says why, in
-    the app's log). A Python node runs as a ``script:`` app does (procs.PreApp): started
-    with the run, and gone a few seconds after a killed runner even when rospy's shutdown
-    hangs (preapp.watch_runner), where rosrun's exec of it would leave it running."""
+    """The Python script a ``node: PKG/TYPE`` app runs, or None when it is not Python (a
+    compiled node, a shell wrapper) or not among the package's installed executables
+    (rosrun then finds it, or says why in the app's log). Looked for where rosrun and
+    roslaunch look first, the package's libexec folder of the first workspace holding it
+    (catkin's find_in_workspaces: 0.1 ms, where roslib's find_node walks the package's
+    source tree as well, 110 ms); a catkin relay (``catkin_install_python``'s script in
+    devel space) is followed to the script it runs. A Python node runs as a ``script:`` app
+    does (procs.PreApp): started with the run, its libraries imported meanwhile, and gone a
+    few seconds after a killed runner even when rospy's shutdown hangs
+    (preapp.watch_runner), where rosrun's exec of it would leave it running."""
     try:
-        import roslib.packages
-        found = roslib.packages.find_node(pkg, node_type)
-    except Exception:  # noqa: BLE001 - no such package: rosrun reports it
+        from catkin.find_in_workspaces import find_in_workspaces
+        dirs = find_in_workspaces(search_dirs=['libexec'], project=pkg,
+                                  first_matching_workspace_only=True)
+    except Exception:  # noqa: BLE001 - no catkin: rosrun finds it
         return None
-    if not found:
-        return None
-    try:
-        with open(found[0], 'rb') as f:
-            first = f.readline(200)
-    except OSError:
-        return None
-    return found[0] if first.startswith(b'#!') and b'python' in first else None
+    for d in dirs:
+        path = os.path.join(d, node_type)
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            try:
+                with open(path, 'rb') as f:
+                    head = f.read(4096)
+            except OSError:
+                return None
+            if not (head.startswith(b'#!') and b'python' in head.split(b'\n', 1)[0]):
+                return None
+            relay = CATKIN_RELAY.search(head)
+            if relay and os.path.isfile(relay.group(1).decode()):
+                return relay.group(1).decode()
+            return path
+    return None
+
+
+# what catkin's script.py.in writes in devel space for a catkin_install_python program
+CATKIN_RELAY = re.compile(rb"^# generated from catkin/cmake/template/script\.py\.in\n"
+                          rb"(?:#[^\n]*\n)*python_script = '([^'\n]+)'\n", re.M)
+
 
 INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
 

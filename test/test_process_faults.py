@@ -140,6 +140,16 @@ def test_an_app_flooding_a_recorded_topic(tmp_path):
     assert 'handshake: ' in out and ' 0 dropped by its queues' in out, out
 
 
+def test_an_app_that_does_not_end_on_its_sigint_is_killed_and_said(tmp_path):
+    # the verdicts stand; the 10 s the run's end waited are explained in one line
+    rc, out, _suite, _ = run_fault(tmp_path, 'deaf')
+    assert rc == 0, out
+    assert re.search(r'^PASS imu_rate:', out, re.M), out
+    assert re.findall(r'^WARNING .*$', out, re.M) == [
+        'WARNING app /fault_app did not end within 10 s of its SIGINT: SIGKILLed with its '
+        'process group'], out
+
+
 def test_a_killed_runner_leaves_no_world_behind(tmp_path):
     """run_scenario itself SIGKILLed (a CI job cancelled, a Ray node removed): its master,
     world and apps go too (found: a removed Ray node's run left its roslaunch running)."""

@@ -352,7 +352,7 @@ expect:
 """
 
 
-def test_a_node_app_runs_as_roslaunch_would_run_it(tmp_path):
+def test_a_node_app_runs_as_rosrun_would_run_it(tmp_path):
     """``node: pkg/type``: the package's barcode_reader (a Python node, run as a script app
     is) decodes the thesis's QR code from the phone's camera; a node that is not there is
     the run's ERROR with rosrun's words."""

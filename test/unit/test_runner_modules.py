@@ -2,6 +2,9 @@
 import ast
 import json
 import os
+import signal
+import sys
+import time
 
 import pytest
 import rosbag
@@ -388,3 +391,21 @@ def test_a_launch_imports_roslaunch_first_and_talks_only_to_the_master_it_is_giv
     finally:
         signal.signal(signal.SIGINT, old)
 
+
+
+def test_stop_run_returns_the_apps_it_had_to_sigkill(tmp_path):
+    """An app that ignores its SIGINT is SIGKILLed at the grace and returned (the run says
+    it); one that ends on its SIGINT is not."""
+    deaf = procs.Proc([sys.executable, '-c', 'import signal, time\n'
+                       'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
+                       'print("ready", flush=True)\ntime.sleep(60)\n'],
+                      dict(os.environ), str(tmp_path / 'deaf.log'))
+    fine = procs.Proc([sys.executable, '-c', 'import time\nprint("ready", flush=True)\n'
+                       'time.sleep(60)\n'], dict(os.environ), str(tmp_path / 'fine.log'))
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and not all(
+            (tmp_path / n).read_text() for n in ('deaf.log', 'fine.log')):
+        time.sleep(0.02)
+    killed = procs.stop_run([deaf, fine], grace=1.0)
+    assert killed == [deaf]
+    assert deaf.p.returncode == -signal.SIGKILL and fine.p.returncode != -signal.SIGKILL

@@ -13,7 +13,7 @@ import xmlrpc.client
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'launch_env', 'stop_run', 'age', 'alive',
+__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'STOP_GRACE', 'launch_env', 'stop_run', 'age', 'alive',
            'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
            'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
            'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_runs', 'thread_states',
@@ -99,11 +99,14 @@ class Proc(object):
                 pass
 
     def finish(self, deadline):
-        """Wait for it until deadline (monotonic), then SIGKILL its group; close its log."""
+        """Wait for it until deadline (monotonic), then SIGKILL its group; close its log.
+        True when it had to be SIGKILLed."""
+        killed = False
         if self.p.poll() is None:
             try:
                 self.p.wait(max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
+                killed = True
                 try:
                     os.killpg(self.p.pid, signal.SIGKILL)
                 except OSError:
@@ -115,6 +118,7 @@ class Proc(object):
                 self.p.stdin.close()
             except OSError:
                 pass
+        return killed
 
 
 class _TimedTransport(xmlrpc.client.Transport):
@@ -383,13 +387,17 @@ def rosout_path():
 _ROSOUT = None
 
 
-def stop_run(apps, launch=None, node=None, grace=10.0):
+STOP_GRACE = 10.0   # s a run's processes have to end on their SIGINT, then SIGKILL
+
+
+def stop_run(apps, launch=None, node=None, grace=STOP_GRACE):
     """Stop a run's processes together: every app (its group gets SIGINT) and the world
     node (pid ``node``, below the roslaunch Proc ``launch``) at once, each shutting down in
     order; then the rest of the launch tree (roslaunch, rosmaster, rosout: they hold
     nothing a run needs) is SIGKILLed instead of shut down one node after the other, as
     roslaunch does (1.5 s of every run's 2.2 s teardown). Without a node, the launch gets
-    SIGINT like an app. Anything alive at ``grace`` s is SIGKILLed."""
+    SIGINT like an app. Anything alive at ``grace`` s is SIGKILLed. Returns the apps that
+    were (said by the run: they did not end on their SIGINT)."""
     deadline = time.monotonic() + grace
     tree = []
     for p in apps:
@@ -403,10 +411,9 @@ def stop_run(apps, launch=None, node=None, grace=10.0):
                 pass
         else:
             launch.interrupt()
-    for p in apps:
-        p.finish(deadline)
+    killed = [p for p in apps if p.finish(deadline)]
     if launch is None:
-        return
+        return killed
     if tree:
         while alive(node) and time.monotonic() < deadline:
             time.sleep(0.01)
@@ -415,6 +422,7 @@ def stop_run(apps, launch=None, node=None, grace=10.0):
         _kill_all([node] + [q for q in frozen_tree(launch.p.pid, tree) if q != node
                             and alive(q)])
     launch.finish(deadline if not tree else time.monotonic() + 5.0)
+    return killed
 
 
 def frozen_tree(pid, also=()):

@@ -677,7 +677,12 @@ class Runner(Actions):
                 except Exception:  # noqa: BLE001 - not a rospy publisher
                     pass
         self.storage_problems = self.recorder.close()   # storage faults: one line each
-        self.world.stop(self.apps.procs)     # a warm world stays for the next scenario
+        # a warm world stays for the next scenario
+        for name in self.world.stop(self.apps.procs) or ():
+            # (rospy's own handler deadlocks when the SIGINT lands during a call to the
+            # master: the app waits on a lock its thread holds; preapp.py)
+            self.say('WARNING %s did not end within %g s of its SIGINT: SIGKILLed with its '
+                     'process group' % (name, procs.STOP_GRACE))
         if self.collector is not None:
             self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):

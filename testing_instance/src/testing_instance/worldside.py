@@ -420,7 +420,10 @@ class WorldSide(object):
 
     def stop(self, apps):
         """End the run's processes: ``apps`` [(node name, Proc)] and what this side started.
-        A warm world stays for the next scenario."""
+        A warm world stays for the next scenario. Returns the names of the processes that
+        did not end on their SIGINT and were SIGKILLed (procs.stop_run; a warm farm's
+        leaving apps are waited for by the next scenario, WarmHost.settle)."""
+        killed = []
         if self.warm is not None:
             # the apps get SIGINT and leave the graph while the next scenario's reload and
             # apps start; their rospy exit (0.65 s) is not waited for (WarmHost.leave)
@@ -429,14 +432,17 @@ class WorldSide(object):
         elif self.embedded:
             # the world is this process (it ends with it); its launch nodes and apps stop
             # as a run's apps do, the master goes at once
-            procs.stop_run(self.launch_procs + [p for _n, p in apps])
+            killed = procs.stop_run(self.launch_procs + [p for _n, p in apps])
             if self.logfile is not None:
                 self.logfile.close()     # its file stays for the log tails
         else:
-            procs.stop_run([p for _n, p in apps], self.proc,
-                           self.watch.get(procs.WORLD_NODE))
+            killed = procs.stop_run([p for _n, p in apps], self.proc,
+                                    self.watch.get(procs.WORLD_NODE))
         if self.core is not None:        # the master and rosout go at once (nothing
             self.core.kill()             # of theirs is needed any more)
+        names = {id(p): 'app %s' % n for n, p in apps}
+        return [names.get(id(p)) or 'the launch node %s' % os.path.basename(p.cmd[0])
+                for p in killed or ()]
 
 
 def launch_args(sc, seed, rtf, report=None):

@@ -65,6 +65,12 @@ def test_an_app_that_exits_0_has_finished_once_and_one_that_fails_is_the_runs_er
                lambda: dict(os.environ), str(tmp_path), out.append)
     bad.launch(lambda q: None)
     _wait_exit(bad)
+    # before time started (the run's checks while the world loads): as await_ready says it
+    with pytest.raises(RunError) as e:
+        bad.check(0.0, lambda: 0.0)
+    assert str(e.value) == 'app /bad exited at start (exit code 3)'
+    assert 'reading the frame failed' in e.value.log_lines
+    bad.ready = True                                     # (await_ready done)
     with pytest.raises(RunError) as e:
         bad.check(0.5, lambda: 0.75)
     assert str(e.value) == 'app /bad crashed at sim time 0.750 s (exit code 3)'
@@ -79,6 +85,7 @@ def test_an_app_killed_by_a_signal_says_which(tmp_path):
     assert apps.names() == {'/app0'}
     os.kill(p.p.pid, signal.SIGKILL)
     _wait_exit(apps)
+    apps.ready = True
     with pytest.raises(RunError, match=r'app /app0 crashed .* \(killed by signal 9\)'):
         apps.check(0.0, lambda: 0.0)
 

@@ -64,6 +64,11 @@ CATKIN_RELAY = re.compile(rb"^# generated from catkin/cmake/template/script\.py\
 INFRA_TOPICS = {'/rosout', '/rosout_agg', '/clock'}
 
 
+def _how(code):
+    """How a process ended, from its return code (not 0)."""
+    return 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
+
+
 class Apps(object):
     def __init__(self, sc, env, run_dir, say, world=lambda: None, master_pid=lambda: None):
         """sc: the scenario; env(): the processes' environment (the run's master);
@@ -80,6 +85,7 @@ class Apps(object):
         self._plan = None          # [(node name, script or None, args or command)]
         self.finished = set()
         self.watch = None          # AppWatch, once launched
+        self.ready = False         # await_ready done: time may start
 
     def names(self):
         return {n for n, _p in self.procs}
@@ -140,6 +146,7 @@ class Apps(object):
     def await_ready(self):
         """Wait until every app is registered with the master and connected."""
         if not self.procs:
+            self.ready = True
             return
         import rosgraph
         names = list(self.procs)
@@ -151,7 +158,7 @@ class Apps(object):
             nodes = {n for _t, ns in pubs + subs for n in ns}
             for n, p in list(names):
                 if not p.alive():
-                    raise RunError('app %s exited at start (code %s)' % (n, p.p.returncode),
+                    raise RunError('app %s exited at start (%s)' % (n, _how(p.p.returncode)),
                                    tail(p.log_path))
                 if n in nodes:
                     names.remove((n, p))
@@ -162,6 +169,7 @@ class Apps(object):
                            % ', '.join(n for n, _p in names),
                            sum((tail(p.log_path) for _n, p in names), []))
         self._wait_connections(m, deadline)
+        self.ready = True
 
     def _wait_connections(self, master, deadline):
         """Wait until every app is set up: each subscription of its to a published topic
@@ -265,7 +273,9 @@ class Apps(object):
 
     def check(self, t, fault_t):
         """An app that exited: code 0 has finished (said once, at sim time ``t``); any other
-        code or a signal is the run's ERROR at ``fault_t()``, with its log tail."""
+        code or a signal is the run's ERROR at ``fault_t()``, with its log tail: one that
+        exited before time started (the run's checks while the world loads) "exited at
+        start", as await_ready says it (a node rosrun could not find: its words)."""
         for name, p in self.procs:
             code = p.p.poll()
             if code is None or name in self.finished:
@@ -274,9 +284,11 @@ class Apps(object):
                 self.finished.add(name)
                 self.say('app %s finished at sim time %.3f s (exit code 0)' % (name, t))
                 continue
-            how = 'killed by signal %d' % -code if code < 0 else 'exit code %d' % code
-            raise RunError('app %s crashed at sim time %.3f s (%s)' % (name, fault_t(), how),
-                           tail(p.log_path))
+            if not self.ready:
+                raise RunError('app %s exited at start (%s)' % (name, _how(code)),
+                               tail(p.log_path))
+            raise RunError('app %s crashed at sim time %.3f s (%s)'
+                           % (name, fault_t(), _how(code)), tail(p.log_path))
 
     def wait_answered(self, wake):
         """After a slice: until every app has answered it (AppWatch.wait; ``wake(s)``: wait

@@ -154,15 +154,18 @@ def test_world_dying_mid_scenario_is_an_error_with_its_log(tmp_path):
     f.write_text('duration: 3\nworld: {launch: %s}\nexpect:\n'
                  '  - {topic: /mobile_device/imu_sensor_data, rate: {gt: 50}}\n'
                  % os.path.join(HERE, 'rostest', 'scenario_dying_world.launch'))
+    # the killer is a launch node, not an app: the lockstep does not wait for it, and at
+    # real_time_factor 0 the world steps on while it calls rosnode kill (under stress-ng
+    # it died at sim time 2.0 s in 1 of 4 loaded runs): any time before the end is the world's death
     rc, out = run(f, '--world-node')
     assert rc == 2, out
-    assert re.search(r'ERROR the world died at sim time [01]\.\d+ s', out), out
+    assert re.search(r'ERROR the world died at sim time [012]\.\d+ s', out), out
     assert 'last lines of the world/app log' in out and 'world_killer' in out, out
     # embedded (the default): rosnode kill /sim_world shuts the runner's own node down
     rc, out = run(f)
     assert rc == 2, out
     assert re.search(r'ERROR the world node /sim_world \(embedded in this run\) was shut '
-                     r'down at sim time [01]\.\d+ s', out), out
+                     r'down at sim time [012]\.\d+ s', out), out
     assert 'world_killer: killing /sim_world' in out, out     # the launch nodes' log tails
 
 

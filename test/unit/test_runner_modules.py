@@ -400,12 +400,16 @@ def test_stop_run_returns_the_apps_it_had_to_sigkill(tmp_path):
                        'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
                        'print("ready", flush=True)\ntime.sleep(60)\n'],
                       dict(os.environ), str(tmp_path / 'deaf.log'))
-    fine = procs.Proc([sys.executable, '-c', 'import time\nprint("ready", flush=True)\n'
-                       'time.sleep(60)\n'], dict(os.environ), str(tmp_path / 'fine.log'))
+    # (its SIGINT handler set: a suite started in the background of a non-interactive
+    # shell, as CI is, hands its children SIGINT ignored, and Python then keeps it so)
+    fine = procs.Proc([sys.executable, '-c', 'import signal, time\n'
+                       'signal.signal(signal.SIGINT, signal.default_int_handler)\n'
+                       'print("ready", flush=True)\ntime.sleep(60)\n'],
+                      dict(os.environ), str(tmp_path / 'fine.log'))
     deadline = time.monotonic() + 20
     while time.monotonic() < deadline and not all(
             (tmp_path / n).read_text() for n in ('deaf.log', 'fine.log')):
         time.sleep(0.02)
-    killed = procs.stop_run([deaf, fine], grace=1.0)
+    killed = procs.stop_run([deaf, fine], grace=3.0)
     assert killed == [deaf]
     assert deaf.p.returncode == -signal.SIGKILL and fine.p.returncode != -signal.SIGKILL

@@ -13,8 +13,8 @@ import xmlrpc.client
 
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
-__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'STOP_GRACE', 'launch_env', 'stop_run', 'age', 'alive',
-           'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
+__all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'STOP_GRACE', 'launch_env', 'stop_run', 'age',
+           'alive', 'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
            'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
            'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_runs', 'thread_states',
            'world_node']

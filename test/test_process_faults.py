@@ -150,6 +150,37 @@ def test_an_app_that_does_not_end_on_its_sigint_is_killed_and_said(tmp_path):
         'process group'], out
 
 
+def test_a_deaf_app_in_a_warm_farm_is_said_by_the_scenario_that_waited_for_it(tmp_path):
+    """In a warm farm the next scenario waits for the last one's apps to leave the graph
+    (WarmHost.settle): the 10 s it waited for a deaf one are its start-up's, explained in
+    its output, naming the app and the scenario it belonged to."""
+    a, b = tmp_path / 'deaf.yaml', tmp_path / 'after.yaml'
+    a.write_text(SCENARIO % dict(mode='deaf', duration=1.0, at=0.5, mark=tmp_path / 'm',
+                                 app=APP))
+    b.write_text('name: after\nduration: 0.5\nworld: {args: {camera_rate: 1}}\nexpect:\n'
+                 '  - {name: imu_rate, topic: /mobile_device/imu_sensor_data, '
+                 'rate: {near: 100, tol: 10}}\n')
+    marker = uuid.uuid4().hex
+    env = dict(os.environ, MDS_FAULT_TEST=marker)
+    env.pop('ROS_MASTER_URI', None)
+    env.setdefault('ROS_HOSTNAME', 'localhost')
+    p = subprocess.run([sys.executable, NODE, '--jobs', '1', str(a), str(b)],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       timeout=300, env=env)
+    out = p.stdout
+    assert p.returncode == 0, out
+    assert re.search(r'^\[deaf.yaml\] PASS imu_rate:', out, re.M), out
+    assert re.search(r'^\[after.yaml\] PASS imu_rate:', out, re.M), out
+    assert re.findall(r'^.*WARNING .*$', out, re.M) == [
+        '[after.yaml] WARNING app /fault_app of scenario fault_deaf did not end within 10 s '
+        'of its SIGINT: SIGKILLed with its process group (this start-up waited for it)'], out
+    # the wait is the second scenario's start-up's
+    up = float(re.search(r'^\[after.yaml\] start-up: ([\d.]+) s', out, re.M).group(1))
+    assert up >= 9.5, out
+    time.sleep(0.5)
+    assert left_behind(marker) == []
+
+
 def test_a_killed_runner_leaves_no_world_behind(tmp_path):
     """run_scenario itself SIGKILLed (a CI job cancelled, a Ray node removed): its master,
     world and apps go too (found: a removed Ray node's run left its roslaunch running)."""

@@ -307,7 +307,7 @@ def test_settle_waits_until_an_app_left_the_graph_not_until_it_exited(tmp_path, 
     host = settled_host(tmp_path, monkeypatch, {'/slow_app': flag})
     host.leave([('/slow_app', p)])
     t0 = _t.monotonic()
-    host.settle()
+    assert host.settle() == []                 # nothing killed: nothing to say
     assert _t.monotonic() - t0 < 1.5          # not the 2 s of its exit
     assert os.path.exists(flag) and p.alive()  # it left the graph and is still exiting
     assert [q for q, _d in host.exiting] == [p]
@@ -322,7 +322,7 @@ def test_settle_waits_for_the_exit_of_a_process_it_cannot_see_in_the_graph(tmp_p
     host = settled_host(tmp_path, monkeypatch, {})
     host.leave([(None, p)])                    # no node name: only its exit tells
     t0 = _t.monotonic()
-    host.settle()
+    assert host.settle() == []
     assert _t.monotonic() - t0 >= 0.7 and not p.alive() and host.exiting == []
 
 
@@ -330,8 +330,9 @@ def test_an_app_that_never_leaves_is_killed_at_the_grace(tmp_path, monkeypatch):
     import signal as _s
     p, flag = leaver(tmp_path, '/stubborn', -1)
     host = settled_host(tmp_path, monkeypatch, {'/stubborn': flag})
-    host.leave([('/stubborn', p)])
-    host.settle(grace=0.5)
+    host.leave([('/stubborn', p)], 'first')
+    # named with its scenario, for the next scenario's WARNING (Runner._run_live)
+    assert host.settle(grace=0.5) == [('/stubborn', 'first')]
     assert not p.alive() and p.p.returncode == -_s.SIGKILL and host.exiting == []
 
 

@@ -535,7 +535,11 @@ class Runner(Actions):
         self.start_apps()
         self._phase('apps')
         if self.warm is not None:
-            self.warm.settle()                   # the last scenario's apps are gone
+            # the last scenario's apps are gone (one deaf to its SIGINT was waited for)
+            for name, before in self.warm.settle():
+                self.say('WARNING app %s of scenario %s did not end within %g s of its '
+                         'SIGINT: SIGKILLed with its process group (this start-up waited '
+                         'for it)' % (name, before, procs.STOP_GRACE))
         self.start_at(self._step_to(0.0))       # paused now (attach: wherever it was)
         self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True

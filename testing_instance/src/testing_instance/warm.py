@@ -71,7 +71,7 @@ class WarmHost(object):
         self.base_nodes = set()
         self.log_offset = 0
         self.broken = False       # the master died under this process's node
-        self.leaving = []         # the last scenario's apps: (name, uri, Proc) (leave, settle)
+        self.leaving = []         # the last scenario's apps: (name, uri, Proc, scenario)
         self.exiting = []         # (Proc, deadline): out of the graph, not yet exited
         self.rss_base = None      # kB of the world node at its first scenario
 
@@ -130,10 +130,11 @@ class WarmHost(object):
         self.ready(runner, deadline)
         self.reset(runner)
 
-    def leave(self, apps):
-        """The processes of the scenario that ended, as (ROS node name or None, procs.Proc):
-        SIGINT now. ``settle`` (the next scenario, before it subscribes or steps) waits
-        until each has left the ROS graph; ``close`` until each has exited."""
+    def leave(self, apps, scenario=None):
+        """The processes of the scenario that ended (``scenario``: its name, for the next
+        one's words), as (ROS node name or None, procs.Proc): SIGINT now. ``settle`` (the
+        next scenario, before it subscribes or steps) waits until each has left the ROS
+        graph; ``close`` until each has exited."""
         m = self._master() if self.port else None
         for name, p in apps:
             uri = None
@@ -143,31 +144,37 @@ class WarmHost(object):
                 except Exception:  # noqa: BLE001 - never registered, or the master is gone
                     pass
             p.interrupt()
-            self.leaving.append((name, uri, p))
+            self.leaving.append((name, uri, p, scenario))
 
-    def settle(self, grace=10.0):
+    def settle(self, grace=procs.STOP_GRACE):
         """Wait until every process of the last scenario has left the ROS graph: it exited,
         or its node is no longer registered under its URI. rospy unregisters within
         milliseconds of SIGINT, then takes another 0.65 s to exit (its threads poll for
         shutdown every 0.5 s): the next scenario need not wait for that. A process that
         was never registered is waited for until it exits. What is still in the graph at
         ``grace`` s is SIGKILLed and its registrations removed; processes out of the graph
-        but still exiting are reaped later (``_reap``), SIGKILLed if alive at ``grace``."""
+        but still exiting are reaped later (``_reap``), SIGKILLed if alive at ``grace``.
+        Returns [(node name, scenario name)] of the processes this SIGKILLed: they did
+        not end on their SIGINT, and the next scenario's start-up waited for them (the
+        runner says so)."""
         deadline = time.monotonic() + grace
         m = self._master() if self.port else None
-        killed = False
-        for name, uri, p in self.leaving:
+        killed, said = False, []
+        for name, uri, p, scenario in self.leaving:
             while p.alive() and time.monotonic() < deadline and _registered(m, name, uri):
                 time.sleep(0.002)
             if p.alive() and not _registered(m, name, uri):
                 self.exiting.append((p, deadline))
                 continue
-            p.finish(deadline)                # SIGKILL at the deadline
+            if p.finish(deadline):                # SIGKILL at the deadline
+                said.append((name, scenario))
+            # (a process SIGKILLed by someone else left its registrations too)
             killed |= p.p.returncode == -signal.SIGKILL
         self.leaving = []
         self._reap()
         if killed and self.port:
             _forget_gone(self._master(), set())
+        return said
 
     def _reap(self, wait=False):
         """Close the processes that left the graph and exited since; SIGKILL those alive

@@ -422,12 +422,13 @@ class WorldSide(object):
         """End the run's processes: ``apps`` [(node name, Proc)] and what this side started.
         A warm world stays for the next scenario. Returns the names of the processes that
         did not end on their SIGINT and were SIGKILLed (procs.stop_run; a warm farm's
-        leaving apps are waited for by the next scenario, WarmHost.settle)."""
+        leaving apps are waited for by the next scenario, WarmHost.settle, which says
+        the ones it had to SIGKILL)."""
         killed = []
         if self.warm is not None:
             # the apps get SIGINT and leave the graph while the next scenario's reload and
             # apps start; their rospy exit (0.65 s) is not waited for (WarmHost.leave)
-            self.warm.leave(apps)
+            self.warm.leave(apps, self.sc.name)
             self.warm.save_log(os.path.join(self.run_dir, 'world.log'))
         elif self.embedded:
             # the world is this process (it ends with it); its launch nodes and apps stop

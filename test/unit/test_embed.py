@@ -91,3 +91,23 @@ def test_a_local_service_is_called_as_a_proxy_would_call_it():
         svc(False)
     assert seen == [True, True, False]
     svc.close()                                  # nothing to close
+
+
+def test_the_launch_files_other_nodes_start_with_their_ros_names(tmp_path):
+    """Each of the launch file's other nodes runs as roslaunch would run it, and its Proc
+    carries its ROS name (namespace and all): what the run says of it (WorldSide.stop)."""
+    f = tmp_path / 'other.launch'
+    f.write_text('<launch><node name="sim_world" pkg="mobile_device_sim" type="sim_world"/>'
+                 '<group ns="lab"><node name="talker" pkg="rostopic" type="rostopic" '
+                 'args="pub /x std_msgs/Empty -r 1"/></group></launch>')
+    plan = embed.plan_launch(str(f), [], 11311)
+    env = dict(os.environ, ROS_MASTER_URI='http://localhost:1')    # nobody answers there
+    procs_ = plan.start_nodes(env, str(tmp_path))
+    try:
+        assert [p.node_name for p in procs_] == ['/lab/talker']
+        assert any(a.endswith('rostopic') for a in procs_[0].cmd[:2])
+        assert '__name:=talker' in procs_[0].cmd
+        assert (tmp_path / 'talker.log').exists()
+    finally:
+        for p in procs_:
+            p.finish(0)                         # SIGKILL now, log closed

@@ -4,6 +4,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 import types
 
 import pytest
@@ -113,11 +114,13 @@ def test_the_log_tail_is_the_worlds_own_log(tmp_path):
 
 def test_stop_leaves_a_warm_world_and_hands_it_the_apps(tmp_path):
     left, saved = [], []
-    warm = types.SimpleNamespace(leave=left.extend, save_log=saved.append)
-    ws = WorldSide(_sc(), str(tmp_path), warm=warm)
+    warm = types.SimpleNamespace(leave=lambda apps, scenario: left.append((apps, scenario)),
+                                 save_log=saved.append)
+    ws = WorldSide(_sc(name='first'), str(tmp_path), warm=warm)
     app = Proc([sys.executable, '-c', 'pass'], dict(os.environ), str(tmp_path / 'a.log'))
     ws.stop([('/app0', app)])
-    assert left == [('/app0', app)] and saved == [str(tmp_path / 'world.log')]
+    # with the scenario's name: the next one names it if it has to SIGKILL an app of it
+    assert left == [([('/app0', app)], 'first')] and saved == [str(tmp_path / 'world.log')]
     app.p.wait()
 
 
@@ -130,6 +133,33 @@ def test_stop_ends_a_launched_worlds_apps_and_launch(tmp_path):
     ws.stop([('/app0', app)])
     assert not app.alive() and not ws.proc.alive()
     assert not procs.alive(app.p.pid)
+
+
+def test_stop_names_a_launch_node_it_had_to_sigkill_by_its_ros_name(tmp_path, monkeypatch):
+    """An embedded run's launch node deaf to its SIGINT is SIGKILLed and said by its ROS
+    name (embed.LaunchPlan.start_nodes gives it), not by its executable's."""
+    import functools
+    monkeypatch.setattr(procs, 'stop_run', functools.partial(procs.stop_run, grace=1.0))
+    ws = WorldSide(_sc(), str(tmp_path), embedded=True)
+    deaf = ('import signal, sys, time; signal.signal(signal.SIGINT, signal.SIG_IGN); '
+            'print("up", flush=True); time.sleep(60)')
+    fine = 'import signal, time; signal.signal(signal.SIGINT, signal.default_int_handler); ' \
+           'print("up", flush=True); time.sleep(60)'
+    node = Proc([sys.executable, '-c', deaf], dict(os.environ), str(tmp_path / 'n.log'))
+    node.node_name = '/lab/stubborn'
+    plain = Proc([sys.executable, '-c', deaf], dict(os.environ), str(tmp_path / 'p.log'))
+    app = Proc([sys.executable, '-c', fine], dict(os.environ), str(tmp_path / 'a.log'))
+    for p in (node, plain, app):
+        deadline = time.monotonic() + 10
+        while 'up' not in (tmp_path / os.path.basename(p.log_path)).read_text() and \
+                time.monotonic() < deadline:
+            time.sleep(0.02)
+    ws.launch_procs = [node, plain]
+    said = ws.stop([('/app0', app)])
+    # without a ROS name (a Proc made elsewhere): its executable's
+    assert said == ['the launch node /lab/stubborn',
+                    'the launch node %s' % os.path.basename(sys.executable)]
+    assert not node.alive() and not plain.alive() and not app.alive()
 
 
 def test_the_master_and_the_world_node_below_roslaunch_are_watched(tmp_path):

@@ -83,7 +83,11 @@ class LaunchPlan(object):
             if (node.namespace or '/').strip('/'):
                 node_env['ROS_NAMESPACE'] = node.namespace
             name = node.name.replace('/', '_')
-            out.append(Proc(cmd, node_env, os.path.join(log_dir, '%s.log' % name)))
+            proc = Proc(cmd, node_env, os.path.join(log_dir, '%s.log' % name))
+            # its ROS name, for what the run says of it (WorldSide.stop)
+            from rosgraph.names import make_global_ns
+            proc.node_name = make_global_ns(node.namespace or '/') + node.name
+            out.append(proc)
         return out
 
 

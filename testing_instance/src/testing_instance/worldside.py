@@ -442,8 +442,8 @@ class WorldSide(object):
         if self.core is not None:        # the master and rosout go at once (nothing
             self.core.kill()             # of theirs is needed any more)
         names = {id(p): 'app %s' % n for n, p in apps}
-        return [names.get(id(p)) or 'the launch node %s' % os.path.basename(p.cmd[0])
-                for p in killed or ()]
+        return [names.get(id(p)) or 'the launch node %s' % (
+            getattr(p, 'node_name', None) or os.path.basename(p.cmd[0])) for p in killed or ()]
 
 
 def launch_args(sc, seed, rtf, report=None):

@@ -153,10 +153,13 @@ def test_an_app_that_does_not_end_on_its_sigint_is_killed_and_said(tmp_path):
 def test_a_deaf_app_in_a_warm_farm_is_said_by_the_scenario_that_waited_for_it(tmp_path):
     """In a warm farm the next scenario waits for the last one's apps to leave the graph
     (WarmHost.settle): the 10 s it waited for a deaf one are its start-up's, explained in
-    its output, naming the app and the scenario it belonged to."""
-    a, b = tmp_path / 'deaf.yaml', tmp_path / 'after.yaml'
+    its output, naming the app and the scenario it belonged to; the farm's last
+    scenario's is said after the summary table, as the worker ends."""
+    a, b, c = tmp_path / 'deaf.yaml', tmp_path / 'after.yaml', tmp_path / 'last.yaml'
     a.write_text(SCENARIO % dict(mode='deaf', duration=1.0, at=0.5, mark=tmp_path / 'm',
                                  app=APP))
+    # the same app deaf in the farm's last scenario: said as the farm ends
+    c.write_text(a.read_text().replace('name: fault_deaf', 'name: last_deaf'))
     b.write_text('name: after\nduration: 0.5\nworld: {args: {camera_rate: 1}}\nexpect:\n'
                  '  - {name: imu_rate, topic: /mobile_device/imu_sensor_data, '
                  'rate: {near: 100, tol: 10}}\n')
@@ -164,16 +167,20 @@ def test_a_deaf_app_in_a_warm_farm_is_said_by_the_scenario_that_waited_for_it(tm
     env = dict(os.environ, MDS_FAULT_TEST=marker)
     env.pop('ROS_MASTER_URI', None)
     env.setdefault('ROS_HOSTNAME', 'localhost')
-    p = subprocess.run([sys.executable, NODE, '--jobs', '1', str(a), str(b)],
+    p = subprocess.run([sys.executable, NODE, '--jobs', '1', str(a), str(b), str(c)],
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                        timeout=300, env=env)
     out = p.stdout
     assert p.returncode == 0, out
     assert re.search(r'^\[deaf.yaml\] PASS imu_rate:', out, re.M), out
     assert re.search(r'^\[after.yaml\] PASS imu_rate:', out, re.M), out
+    assert re.search(r'^\[last.yaml\] PASS imu_rate:', out, re.M), out
     assert re.findall(r'^.*WARNING .*$', out, re.M) == [
         '[after.yaml] WARNING app /fault_app of scenario fault_deaf did not end within 10 s '
-        'of its SIGINT: SIGKILLed with its process group (this start-up waited for it)'], out
+        'of its SIGINT: SIGKILLed with its process group (this start-up waited for it)',
+        'WARNING app /fault_app of scenario last_deaf did not end within 10 s of its SIGINT: '
+        'SIGKILLed with its process group (at the farm\'s end)'], out
+    assert out.rstrip().endswith('(at the farm\'s end)'), out      # after the table
     # the wait is the second scenario's start-up's
     up = float(re.search(r'^\[after.yaml\] start-up: ([\d.]+) s', out, re.M).group(1))
     assert up >= 9.5, out

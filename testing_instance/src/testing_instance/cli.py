@@ -161,7 +161,8 @@ def farm(files, jobs, a, out=print):
         results.append((f, rc, wall, text))
         for ln in text.splitlines():
             out('[%s] %s' % (os.path.basename(f), ln))
-    Pool(jobs, warm=not a.cold).run(items, lambda f, rc, text, wall: done(f, rc, wall, text))
+    pool = Pool(jobs, warm=not a.cold)
+    pool.run(items, lambda f, rc, text, wall: done(f, rc, wall, text))
     status = {EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}
     out('')
     out('%-40s %-6s %8s %s' % ('scenario', 'result', 'wall s', 'expectations'))
@@ -174,6 +175,8 @@ def farm(files, jobs, a, out=print):
                                                  wall, n_pass, n_all))
         worst = max(worst, rc if rc in (0, 1) else EXIT_ERROR)
     out('%d scenarios, %d jobs, %.1f s wall' % (len(results), jobs, time.monotonic() - wall0))
+    for note in pool.notes:
+        out(note)
     if a.report:
         _farm_index(a.report, results, time.monotonic() - wall0, out)
     return worst

@@ -184,7 +184,10 @@ def run_local(runs, jobs, layout, rtf=None, out=print, warm=True):
         results.append(res)
     items = [(r, run_command(r, layout.junit_of(r), layout.bag_of(r), rtf,
                              report=layout.report_of(r))[2:]) for r in runs]
-    Pool(jobs, warm=warm, env=run_env()).run(items, done)
+    pool = Pool(jobs, warm=warm, env=run_env())
+    pool.run(items, done)
+    for note in pool.notes:           # a worker's last run's app it had to SIGKILL
+        out(note)
     return results
 
 

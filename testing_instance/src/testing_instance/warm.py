@@ -328,7 +328,9 @@ class WarmHost(object):
         _forget_gone(m, set(nodes))
 
     def close(self):
-        self.settle()
+        """The worker is done: the last scenario's apps leave (returns what ``settle`` had
+        to SIGKILL of them: said as the farm ends), the world and the master go."""
+        said = self.settle()
         self._reap(wait=True)
         self._stop_world()
         if self.core is not None:
@@ -336,6 +338,7 @@ class WarmHost(object):
             self.core = None
         if not os.environ.get('SCENARIO_KEEP_LOGS'):
             shutil.rmtree(self.dir, ignore_errors=True)
+        return said
 
 
 def _rospy_up():
@@ -467,7 +470,12 @@ def worker_main(stdin=None, stdout=None):
             if host.broken:
                 break                    # the pool starts a new worker for the rest
     finally:
-        host.close()
+        # the last scenario's apps: one deaf to its SIGINT held the farm's end for the
+        # grace (the pool prints the line after its scenarios' results)
+        for name, scenario in host.close():
+            send({'note': 'WARNING app %s of scenario %s did not end within %g s of its '
+                          'SIGINT: SIGKILLed with its process group (at the farm\'s end)'
+                          % (name, scenario, procs.STOP_GRACE)})
     return 0
 
 
@@ -482,6 +490,7 @@ class Pool(object):
 
     def __init__(self, jobs, warm=True, env=None, python=None, spare=None):
         self.jobs = max(1, int(jobs))
+        self.notes = []           # the workers' lines of no scenario (worker_main's end)
         self.warm = warm
         # a worker beyond ``jobs`` launching the next world (_deal). None: when the jobs
         # leave a CPU idle (--jobs 2 on 2 cores measured 13.8 s without it, 14.6 s with)
@@ -552,6 +561,9 @@ class Pool(object):
                         self.unready.add(w.key)  # world runs there; not launched ahead again
                     w.prep = None
                     continue
+                if 'note' in msg:
+                    self.notes.append(msg['note'])
+                    continue
                 if w.job is None or msg.get('id') != w.job[0]:
                     continue
                 if 'line' in msg:
@@ -566,6 +578,16 @@ class Pool(object):
         finally:
             for w in workers:
                 w.close()
+            # what the workers said as they ended (their output is read to its end first)
+            for w in workers:
+                w.reader.join(5.0)
+            while True:
+                try:
+                    _w, msg = events.get_nowait()
+                except queue.Empty:
+                    break
+                if msg and 'note' in msg:
+                    self.notes.append(msg['note'])
 
     def _deal(self, pending, workers, events):
         """Give idle workers scenarios, at most ``jobs`` running: first to a worker that has

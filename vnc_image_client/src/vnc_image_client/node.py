@@ -32,6 +32,8 @@ from sensor_msgs.msg import Image
 
 from .client import VncAuthError, VncClient, VncReceiver
 
+FATAL_LOG_GRACE = 1.0   # s between a fatal error's log line and the node's shutdown
+
 try:
     from simvid.imageconv import array_to_image
 except ImportError:  # pragma: no cover - the stack is installed together with simvid
@@ -218,9 +220,16 @@ def main(argv=None):
     client = VncClient(host, port, password=password, encodings=encodings)
 
     def fatal(exc):
-        # a wrong or missing password will not fix itself: stop instead of retrying
-        rospy.signal_shutdown('VNC authentication failed' if isinstance(exc, VncAuthError)
-                              else 'VNC password missing')
+        # a wrong or missing password will not fix itself: stop instead of retrying, once
+        # the error just logged has gone out on /rosout. rospy's shutdown closes the
+        # publishers' connections at once and drops what their threads have not written:
+        # the line was lost 6 ms after it was logged (bench/flaky), and rqt_console (or a
+        # test reading /rosout) never saw why the node stopped
+        reason = ('VNC authentication failed' if isinstance(exc, VncAuthError)
+                  else 'VNC password missing')
+        timer = threading.Timer(FATAL_LOG_GRACE, rospy.signal_shutdown, args=(reason,))
+        timer.daemon = True
+        timer.start()
 
     receiver = VncReceiver(client, log=_RospyLog, on_fatal=fatal, retry_auth=password.retry)
     publisher = ImagePublisherThread(client, topic, rate, frame_id, republish)

@@ -71,6 +71,7 @@ class LaunchPlan(object):
     def start_nodes(self, env, log_dir):
         """Start the launch file's other nodes; returns their Procs (logs in log_dir)."""
         from roslaunch.node_args import create_local_process_args
+        from rosgraph.names import make_global_ns
         out = []
         for node in self.nodes:
             try:
@@ -85,7 +86,6 @@ class LaunchPlan(object):
             name = node.name.replace('/', '_')
             proc = Proc(cmd, node_env, os.path.join(log_dir, '%s.log' % name))
             # its ROS name, for what the run says of it (WorldSide.stop)
-            from rosgraph.names import make_global_ns
             proc.node_name = make_global_ns(node.namespace or '/') + node.name
             out.append(proc)
         return out

@@ -33,9 +33,10 @@ def test_results_read_every_outcome_and_an_error_in_teardown(tmp_path):
     assert r['test.unit.test_a::test_ok'] == ('passed', '')
     assert r['test.unit.test_a::test_bad'][0] == 'failed'
     assert r['test.unit.test_a::test_bad'][1].startswith('assert 1 == 2')
-    assert r['test.unit.test_b::test_err'] == ('failed', 'RuntimeError: boom')
+    assert r['test.unit.test_a::test_bad'][1].endswith('\n\ntrace')     # the traceback too
+    assert r['test.unit.test_b::test_err'] == ('failed', 'RuntimeError: boom\n\ntrace')
     assert r['test.unit.test_b::test_skip'][0] == 'skipped'
-    assert r['test.unit.test_b::test_teardown'] == ('failed', 'teardown failed')
+    assert r['test.unit.test_b::test_teardown'] == ('failed', 'teardown failed\n\ntrace')
     assert b.results(str(tmp_path / 'missing.xml')) == {}
     (tmp_path / 'cut.xml').write_text(JUNIT[:200])
     assert b.results(str(tmp_path / 'cut.xml')) == {}
@@ -55,6 +56,34 @@ def test_tally_counts_results_failures_and_the_seeds_that_replay_them():
     assert 'flaky_tests_failed_loaded: 2' in lines and 'flaky_runs_loaded: 1' in lines
     assert 'failed: a::y quiet 1/2 loaded 1/1 seeds [11, 13]: assert 0' in lines
     assert 'failed: a::x quiet 0/2 loaded 1/1 seeds [13]: late' in lines
+
+
+ROSTEST_MESSAGE = """AssertionError: ... logging to /x/rostest-vm-1.log
+  [INFO] [1795949120.759891]: vnc_image_client: 127.0.0.1:30853 -> /vnc_image
+E         test_3_wrong_password (__main__.VncNodeTest.test_3_wrong_password) ... FAIL
+E         FAIL: test_3_wrong_password (__main__.VncNodeTest.test_3_wrong_password)
+E         ----------------------------------------------------------------------
+E         Traceback (most recent call last):
+E           File "/x/vnc_image_client_rostest.py", line 141, in test_3_wrong_password
+E             self.assertEqual(len(errs), 1, [e.msg for e in errs])
+E         AssertionError: 0 != 1 : []
+E         FAILED (failures=1)"""
+
+
+def test_a_rostests_headline_is_its_unittest_failure_and_the_whole_text_is_kept():
+    """A rostest's message is its whole output (log lines first): the line printed is
+    unittest's FAIL line with its error (found: the first line said nothing of what
+    failed), and every failure's whole text is kept with its way and seed."""
+    b = _bench()
+    assert b.headline(ROSTEST_MESSAGE) == (
+        'FAIL: test_3_wrong_password: AssertionError: 0 != 1 : []')
+    assert b.headline('assert 1 == 2\nmore') == 'assert 1 == 2'
+    assert b.headline('') == ''
+    t = b.Tally()
+    t.add('loaded', 7, {'r::vnc': ('failed', ROSTEST_MESSAGE)})
+    assert ('failed: r::vnc quiet 0/0 loaded 1/1 seeds [7]: FAIL: test_3_wrong_password: '
+            'AssertionError: 0 != 1 : []') in t.lines(['quiet', 'loaded'])
+    assert t.texts == [('r::vnc', 'loaded', 7, ROSTEST_MESSAGE)]
 
 
 def _items(spec):

@@ -14,7 +14,8 @@ import xmlrpc.client
 from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exported
 
 __all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'STOP_GRACE', 'launch_env', 'stop_run', 'age',
-           'alive', 'cmdline', 'descendants', 'first_run', 'free_port', 'frozen_tree', 'kill_tree',
+           'alive', 'cmdline', 'deaf_warning', 'descendants', 'first_run', 'free_port',
+           'frozen_tree', 'kill_tree',
            'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
            'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_runs', 'thread_states',
            'world_node']
@@ -388,6 +389,14 @@ _ROSOUT = None
 
 
 STOP_GRACE = 10.0   # s a run's processes have to end on their SIGINT, then SIGKILL
+
+
+def deaf_warning(who, after=''):
+    """The run's line for a process that outlived its SIGINT by STOP_GRACE and was SIGKILLed
+    (``who``: 'app /x', 'app /x of scenario s', 'the launch node /y'; ``after``: what
+    follows, e.g. ' (this start-up waited for it)')."""
+    return ('WARNING %s did not end within %g s of its SIGINT: SIGKILLed with its process '
+            'group%s' % (who, STOP_GRACE, after))
 
 
 def stop_run(apps, launch=None, node=None, grace=STOP_GRACE):

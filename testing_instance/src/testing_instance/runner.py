@@ -537,9 +537,8 @@ class Runner(Actions):
         if self.warm is not None:
             # the last scenario's apps are gone (one deaf to its SIGINT was waited for)
             for name, before in self.warm.settle():
-                self.say('WARNING app %s of scenario %s did not end within %g s of its '
-                         'SIGINT: SIGKILLed with its process group (this start-up waited '
-                         'for it)' % (name, before, procs.STOP_GRACE))
+                self.say(procs.deaf_warning('app %s of scenario %s' % (name, before),
+                                            ' (this start-up waited for it)'))
         self.start_at(self._step_to(0.0))       # paused now (attach: wherever it was)
         self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
@@ -685,8 +684,7 @@ class Runner(Actions):
         for name in self.world.stop(self.apps.procs) or ():
             # (rospy's own handler deadlocks when the SIGINT lands during a call to the
             # master: the app waits on a lock its thread holds; preapp.py)
-            self.say('WARNING %s did not end within %g s of its SIGINT: SIGKILLed with its '
-                     'process group' % (name, procs.STOP_GRACE))
+            self.say(procs.deaf_warning(name))
         if self.collector is not None:
             self.collector.grab_logs(self.run_dir)
         if self.own_dir and not os.environ.get('SCENARIO_KEEP_LOGS'):

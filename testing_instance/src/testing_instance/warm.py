@@ -473,9 +473,8 @@ def worker_main(stdin=None, stdout=None):
         # the last scenario's apps: one deaf to its SIGINT held the farm's end for the
         # grace (the pool prints the line after its scenarios' results)
         for name, scenario in host.close():
-            send({'note': 'WARNING app %s of scenario %s did not end within %g s of its '
-                          'SIGINT: SIGKILLed with its process group (at the farm\'s end)'
-                          % (name, scenario, procs.STOP_GRACE)})
+            send({'note': procs.deaf_warning('app %s of scenario %s' % (name, scenario),
+                                             ' (at the farm\'s end)')})
     return 0
 
 

@@ -12,6 +12,7 @@ STACKS = {
     'vnc_image_client': ['vnc_image_client'],
     'emulator_bridge': ['emulator_bridge'],
     'testing_instance': ['testing_instance'],
+    'sim_studio': ['sim_studio'],
 }
 packages = [p for pkgs in STACKS.values() for p in pkgs]
 package_dir = {p: '%s/src/%s' % (stack, p.replace('.', '/'))

@@ -5,7 +5,7 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 for stack in ('sim_world', 'simvid', 'textvid', 'kinect4skype', 'vnc_image_client',
-              'simsensors', 'emulator_bridge', 'testing_instance'):
+              'simsensors', 'emulator_bridge', 'testing_instance', 'sim_studio'):
     src = os.path.join(ROOT, stack, 'src')
     if src not in sys.path:
         sys.path.insert(0, src)

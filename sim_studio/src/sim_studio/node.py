@@ -1,0 +1,135 @@
+"""rosrun mobile_device_sim studio [--attach] [--world LAUNCH] [--port N] [--host ADDR]
+[name:=value ...]: the studio in a browser (sim_studio/README.md)."""
+import argparse
+import asyncio
+import os
+import secrets
+import sys
+import tempfile
+
+__all__ = ['main', 'parser']
+
+DEFAULT_PORT = 8470
+
+
+def parser():
+    p = argparse.ArgumentParser(
+        prog='studio', description='The studio: the running world in a browser, driven by '
+        'a versioned JSON protocol (/ws, POST /api/cmd, GET /api/scene).')
+    p.add_argument('--attach', action='store_true',
+                   help='join the world already running at ROS_MASTER_URI')
+    p.add_argument('--world', default='office',
+                   help='launch file of the world to start: office or a path (default office)')
+    p.add_argument('--port', type=int, default=DEFAULT_PORT,
+                   help='HTTP port (default %d; 0: a free one)' % DEFAULT_PORT)
+    p.add_argument('--host', default='127.0.0.1',
+                   help='address to bind (default 127.0.0.1; another one needs the token '
+                        'printed at start)')
+    p.add_argument('--rate', type=float, default=40.0, help='pose stream rate, Hz')
+    p.add_argument('--camera-rate', type=float, default=15.0,
+                   help='camera panel frames per second at most')
+    p.add_argument('--camera-topic', default='/mobile_device/image_raw')
+    p.add_argument('args', nargs='*', metavar='name:=value', help='launch file arguments')
+    return p
+
+
+def _launch_path(world):
+    from testing_instance.worldside import LAUNCHES
+    path = LAUNCHES.get(world, world)
+    if not os.path.isfile(path):
+        raise SystemExit('studio: --world %s: no such launch file (office or a path)' % world)
+    return path
+
+
+def _scene_models(rospy):
+    """The known models' descriptions: the world file's, and the launch file's URDFs."""
+    from . import scene
+    out = []
+    wf = rospy.get_param('/sim_world/world_file', None)
+    if wf:
+        try:
+            out += scene.describe_world_file(wf)
+        except Exception as e:  # noqa: BLE001 - the view then shows boxes for them
+            print('studio: cannot read the world file %s: %s' % (wf, e), flush=True)
+    for param, name in (('/robot_description', 'mobile_device'),
+                        ('/flycam_description', 'flycam')):
+        text = rospy.get_param(param, None)
+        if text:
+            try:
+                out.append(scene.describe_urdf(text, name))
+            except Exception as e:  # noqa: BLE001
+                print('studio: cannot read %s: %s' % (param, e), flush=True)
+    return out
+
+
+def main(argv=None):
+    import signal
+    import rospy
+
+    def _term(_sig, _frame):
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGTERM, _term)       # stopped like Ctrl-C: its world goes too
+    argv = rospy.myargv(sys.argv if argv is None else argv)[1:]
+    a = parser().parse_args(argv)
+    bad = [x for x in a.args if ':=' not in x]
+    if bad:
+        print('studio: launch arguments are name:=value, got %s' % ' '.join(bad), flush=True)
+        return 2
+    from aiohttp import web
+    from .launcher import LaunchError, StartedWorld, master_answers, world_running
+    from .server import Studio, make_app
+    from .world import WorldLink
+    import rosgraph
+    uri = rosgraph.get_master_uri()
+    run_dir = tempfile.mkdtemp(prefix='studio-')
+    started = None
+    token = None
+    if a.host not in ('127.0.0.1', 'localhost', '::1'):
+        token = secrets.token_urlsafe(16)
+    try:
+        if a.attach:
+            if not master_answers(uri) or not world_running(uri):
+                print('studio: --attach: no world at %s (ROS_MASTER_URI); start one or run '
+                      'without --attach' % uri, flush=True)
+                return 2
+        else:
+            print('studio: starting the world %s on %s' % (a.world, uri), flush=True)
+            try:
+                started = StartedWorld(uri, _launch_path(a.world), a.args, run_dir)
+            except LaunchError as e:
+                print('studio: %s' % e, flush=True)
+                return 2
+        rospy.init_node('studio', anonymous=True, disable_signals=True)
+        world = WorldLink(rospy, a.camera_topic)
+        world.start()
+        studio = Studio(world, _scene_models(rospy), rate=a.rate, camera_rate=a.camera_rate,
+                        token=token, run_dir=run_dir,
+                        launch=a.world if a.world == 'office' else os.path.abspath(a.world))
+        app = make_app(studio)
+        loop = asyncio.new_event_loop()
+        asyncio.set_event_loop(loop)
+        runner = web.AppRunner(app, handle_signals=False)
+        loop.run_until_complete(runner.setup())
+        site = web.TCPSite(runner, a.host, a.port)
+        loop.run_until_complete(site.start())
+        port = runner.addresses[0][1]
+        host = a.host if ':' not in a.host else '[%s]' % a.host
+        print('studio: http://%s:%d/%s' % (host, port, '?token=%s' % token if token else ''),
+              flush=True)
+        if token:
+            print('studio: token %s (the page, /ws and /api need it)' % token, flush=True)
+        try:
+            loop.run_forever()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            loop.run_until_complete(runner.cleanup())
+            world.close()
+            rospy.signal_shutdown('studio stopped')
+        return 0
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        if started is not None:
+            started.stop()
+        print('studio: stopped', flush=True)

@@ -1,0 +1,385 @@
+"""The studio's aiohttp server: the page and its assets, ``/ws``, ``POST /api/cmd``,
+``GET /api/scene``, and the one command handler they share (``Studio.handle``).
+
+Streams: every client of ``/ws`` gets the model poses, sim time and real-time factor
+(``{"type": "poses"}``) at ``rate`` Hz and the phone camera's latest JPEG (a binary
+message) at most ``camera_rate`` Hz. Each client has one slot per stream that the next
+value overwrites: a slow client gets the latest and loses the rest; nothing waits for it.
+
+Control: one client holds control (the first that sends a command needing it, or asks with
+``{"op": "control", "take": true}``); the others are read-only until it lets go or leaves.
+``POST /api/cmd`` from 127.0.0.1 acts under the holder's control."""
+import asyncio
+import json
+import os
+import re
+import secrets
+import subprocess
+import sys
+import tempfile
+import time
+
+from aiohttp import WSMsgType, web
+
+from . import protocol
+from .protocol import ProtocolError
+from .recorder import Recorder, check as check_yaml
+
+__all__ = ['Studio', 'make_app', 'STATIC', 'THREE']
+
+STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
+THREE = os.environ.get('MDS_THREE_DIR', '/usr/share/javascript/three')
+PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                         '..', '..', '..'))
+RUN_SCENARIO = os.path.join(PKG_ROOT, 'testing_instance', 'nodes', 'run_scenario')
+VERDICT = re.compile(r'^(PASS|FAIL|ERROR) ([\w.-]+):? ?(.*)$')
+STATUS = {0: 'PASS', 1: 'FAIL'}
+
+
+class Client(object):
+    """One /ws connection: its latest-wins slots and the task that sends them."""
+    _n = 0
+
+    def __init__(self, ws, remote):
+        Client._n += 1
+        self.name = 'client%d' % Client._n
+        self.ws = ws
+        self.remote = remote
+        self.slots = {}            # 'poses' / 'camera' / 'replies'... -> latest payload
+        self.replies = []          # answers are never dropped (one per command)
+        self.wake = asyncio.Event()
+        self.sent = 0
+
+    def put(self, key, payload):
+        self.slots[key] = payload
+        self.wake.set()
+
+    def answer(self, obj):
+        self.replies.append(json.dumps(obj))
+        self.wake.set()
+
+    async def pump(self):
+        while not self.ws.closed:
+            await self.wake.wait()
+            self.wake.clear()
+            while self.replies:
+                await self.ws.send_str(self.replies.pop(0))
+            slots, self.slots = self.slots, {}
+            for key, payload in slots.items():
+                if isinstance(payload, bytes):
+                    await self.ws.send_bytes(payload)
+                else:
+                    await self.ws.send_str(payload)
+                self.sent += 1
+
+
+class Studio(object):
+    """The command handler and the streams, over a world link (``world.WorldLink`` or a
+    test's stand-in with the same methods)."""
+
+    def __init__(self, world, scene_models=(), rate=40.0, camera_rate=15.0, token=None,
+                 run_dir=None, launch='office'):
+        self.world = world
+        self.scene_models = list(scene_models)     # scene.describe_* of the known models
+        self.rate = rate
+        self.camera_rate = camera_rate
+        self.token = token
+        self.run_dir = run_dir or tempfile.mkdtemp(prefix='studio-')
+        self.recorder = Recorder(launch=launch)
+        self.clients = []
+        self.holder = None           # the Client holding control
+        self.lock = None             # asyncio.Lock: world commands one at a time
+        self.runs = 0
+        self.log = lambda text: print(text, flush=True)
+
+    # -- the one command handler --------------------------------------------------------
+    async def handle_text(self, text, client=None, local=False):
+        """Parse and carry out one command's text; returns its reply (a dict)."""
+        raw = None
+        try:
+            try:
+                raw = json.loads(text) if isinstance(text, (str, bytes)) and \
+                    len(text) <= protocol.MAX_BYTES else None
+            except ValueError:
+                raw = None
+            cmd = protocol.parse(text, models=self._models())
+        except ProtocolError as e:
+            self.log('studio: refused a command from %s: %s'
+                     % (client.name if client else 'POST /api/cmd', e))
+            return protocol.error(str(e), raw=raw)
+        return await self.handle(cmd, client, local)
+
+    def _models(self):
+        names = self.world.model_names()
+        return names if names else None
+
+    async def handle(self, cmd, client=None, local=False):
+        if cmd.op in protocol.WORLD_OPS or cmd.op == 'control':
+            why = self._control(cmd, client, local)
+            if why:
+                return protocol.error(why, cmd)
+            if cmd.op == 'control':
+                return protocol.reply(cmd, control=self.holder is client and client is not None)
+        try:
+            if cmd.op == 'scene':
+                return protocol.reply(cmd, scene=self.scene())
+            if cmd.op == 'check':
+                return protocol.reply(cmd, problems=check_yaml(cmd['yaml']))
+            if cmd.op == 'record':
+                return protocol.reply(cmd, **self._record(cmd['on']))
+            if cmd.op == 'run':
+                return protocol.reply(cmd, **(await self.run_yaml(cmd['yaml'])))
+            if self.lock is None:
+                self.lock = asyncio.Lock()
+            async with self.lock:
+                loop = asyncio.get_event_loop()
+                extra = await loop.run_in_executor(None, self._apply, cmd)
+        except Exception as e:  # noqa: BLE001 - a refused service: one error back
+            self.log('studio: %s failed: %s' % (cmd.op, e))
+            return protocol.error(str(e), cmd)
+        return protocol.reply(cmd, **(extra or {}))
+
+    def _control(self, cmd, client, local):
+        """None when ``client`` may send ``cmd``, else why not."""
+        if client is None:                 # POST /api/cmd
+            if local or self.holder is None:
+                return None
+            return 'read-only: %s holds control' % self.holder.name
+        if cmd.op == 'control' and not cmd['take']:
+            if self.holder is client:
+                self.holder = None
+                self._tell_control()
+            return None
+        if self.holder is None or self.holder.ws.closed:
+            self.holder = client
+            self._tell_control()
+            return None
+        if self.holder is client:
+            return None
+        return 'read-only: %s holds control; ask again once it lets go' % self.holder.name
+
+    def _tell_control(self):
+        for c in self.clients:
+            c.put('control', json.dumps({'v': protocol.VERSION, 'type': 'control',
+                                         'you': c is self.holder,
+                                         'holder': self.holder.name if self.holder else None}))
+
+    def _record(self, on):
+        if on:
+            self.recorder.start(self.world.clock)
+        else:
+            self.recorder.stop()
+        self._tell_recording()
+        return {'recording': self.recorder.on, 'yaml': self.recorder.yaml()}
+
+    def _tell_recording(self):
+        msg = json.dumps({'v': protocol.VERSION, 'type': 'recording', 'on': self.recorder.on,
+                          'yaml': self.recorder.yaml()})
+        for c in self.clients:
+            c.put('recording', msg)
+
+    def _apply(self, cmd):
+        """Carry out a world-changing command (in a worker thread: rospy calls block)."""
+        w, f = self.world, cmd.fields
+        t = w.clock
+        display = None
+        if cmd.op == 'set_pose':
+            w.set_pose(f['model'], f['position'], f['rpy'])
+        elif cmd.op == 'touch':
+            display = w.touch(f['model'], f['x'], f['y'], f['duration'])
+        elif cmd.op == 'press_button':
+            w.press_button(f['model'], f['button'], f['duration'])
+        elif cmd.op == 'set_environment':
+            w.set_environment(f['values'])
+        elif cmd.op == 'fault':
+            w.fault(f['model'], f['sensor'], f['fault'], f['value'])
+        elif cmd.op == 'play':
+            w.play()
+        elif cmd.op == 'pause':
+            w.pause()
+        elif cmd.op == 'reset':
+            w.reset()
+        elif cmd.op == 'step':
+            return {'sim_time': w.step(f['until'])}
+        entry = self.recorder.add(cmd, t, display)
+        if entry is not None:
+            self._tell_recording_threadsafe()
+        return {'sim_time': t, 'recorded': entry}
+
+    def _tell_recording_threadsafe(self):
+        loop = getattr(self, 'loop', None)
+        if loop is not None:
+            loop.call_soon_threadsafe(self._tell_recording)
+
+    # -- scene and streams ----------------------------------------------------------------
+    def scene(self):
+        """Every model in the world: its pose, its links (pose in the world at the model's
+        rest configuration), the visuals the page draws."""
+        poses = self.world.poses()
+        known = {m['name']: m for m in self.scene_models}
+        models = []
+        for name, pq in sorted(poses.items()):
+            d = known.get(name, {'name': name, 'static': False, 'links': []})
+            models.append(dict(d, pose={'position': pq[:3], 'orientation': pq[3:]},
+                               links=[dict(ln, world_pose=_compose(pq, ln['pose']))
+                                      for ln in d['links']]))
+        return {'v': protocol.VERSION, 'sim_time': self.world.clock, 'rtf': self.world.rtf(),
+                'models': models}
+
+    def poses_message(self):
+        return json.dumps({'v': protocol.VERSION, 'type': 'poses', 't': self.world.clock,
+                           'rtf': round(self.world.rtf(), 3), 'poses': self.world.poses(),
+                           'recording': self.recorder.on}, separators=(',', ':'))
+
+    async def stream(self):
+        """Poses to every client at ``rate`` Hz; the camera's JPEG at most camera_rate Hz."""
+        loop = asyncio.get_event_loop()
+        period = 1.0 / self.rate
+        cam_period = 1.0 / self.camera_rate if self.camera_rate > 0 else None
+        last_cam, last_seq = 0.0, -1
+        nxt = time.monotonic()
+        while True:
+            nxt += period
+            if self.clients:
+                msg = self.poses_message()
+                for c in self.clients:
+                    c.put('poses', msg)
+                now = time.monotonic()
+                seq = getattr(self.world, 'image_seq', 0)
+                if cam_period and seq != last_seq and now - last_cam >= cam_period:
+                    last_cam, last_seq = now, seq
+                    jpeg = await loop.run_in_executor(None, self.world.camera_jpeg)
+                    if jpeg:
+                        for c in self.clients:
+                            c.put('camera', jpeg)
+            await asyncio.sleep(max(0.0, nxt - time.monotonic()))
+            if time.monotonic() - nxt > 1.0:
+                nxt = time.monotonic()
+
+    # -- running a scenario -----------------------------------------------------------------
+    async def run_yaml(self, text):
+        """Run scenario text with run_scenario (its own world, not this one); the verdicts
+        in run_scenario's words."""
+        problems = check_yaml(text)
+        if problems:
+            return {'status': 'ERROR', 'verdicts': [], 'problems': problems, 'output': ''}
+        self.runs += 1
+        d = os.path.join(self.run_dir, 'run%d' % self.runs)
+        os.makedirs(d, exist_ok=True)
+        path = os.path.join(d, 'scenario.yaml')
+        with open(path, 'w') as f:
+            f.write(text)
+        env = dict(os.environ)
+        env.pop('ROS_MASTER_URI', None)          # the run makes its own master
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, RUN_SCENARIO, path, cwd=d, env=env,
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+        out, _ = await proc.communicate()
+        text = out.decode('utf-8', 'replace')
+        return dict(parse_run(text, proc.returncode), output=text[-4000:])
+
+
+def parse_run(text, code):
+    """run_scenario's output and exit code -> {'status', 'verdicts': [{status, name, line}]}."""
+    verdicts = []
+    for ln in text.splitlines():
+        m = VERDICT.match(ln.strip())
+        if m and m.group(2) not in ('scenario',):
+            verdicts.append({'status': m.group(1), 'name': m.group(2), 'line': ln.strip()})
+    return {'status': STATUS.get(code, 'ERROR'), 'verdicts': verdicts}
+
+
+def _compose(pq, pose):
+    from sim_world.transforms import Pose
+    p = Pose(pq[:3], pq[3:]) * Pose(pose['position'], pose['orientation'])
+    return {'position': [float(v) for v in p.p], 'orientation': [float(v) for v in p.q]}
+
+
+# -- the aiohttp application ------------------------------------------------------------------
+def make_app(studio):
+    app = web.Application(client_max_size=protocol.MAX_BYTES + 1024,
+                          middlewares=[_token_middleware(studio)])
+    app['studio'] = studio
+
+    async def index(_request):
+        return web.FileResponse(os.path.join(STATIC, 'index.html'))
+
+    async def scene(_request):
+        return web.json_response(studio.scene())
+
+    async def cmd(request):
+        body = await request.read()
+        local = request.remote in ('127.0.0.1', '::1')
+        rep = await studio.handle_text(body, None, local=local)
+        return web.json_response(rep, status=200 if rep['ok'] else 400)
+
+    async def ws_handler(request):
+        ws = web.WebSocketResponse(max_msg_size=protocol.MAX_BYTES, heartbeat=None)
+        await ws.prepare(request)
+        c = Client(ws, request.remote)
+        studio.clients.append(c)
+        c.put('hello', json.dumps({'v': protocol.VERSION, 'type': 'hello', 'name': c.name,
+                                   'ops': sorted(protocol.OPS),
+                                   'holder': studio.holder.name if studio.holder else None,
+                                   'recording': studio.recorder.on,
+                                   'yaml': studio.recorder.yaml()}))
+        pump = asyncio.ensure_future(c.pump())
+        try:
+            async for msg in ws:
+                if msg.type in (WSMsgType.TEXT, WSMsgType.BINARY):
+                    # one command at a time per client, but the pump keeps streaming
+                    rep = await studio.handle_text(msg.data, c)
+                    c.answer(rep)
+                elif msg.type == WSMsgType.ERROR:
+                    c.answer(protocol.error('message refused: %s' % ws.exception()))
+                    break
+        finally:
+            pump.cancel()
+            studio.clients.remove(c)
+            if studio.holder is c:         # it let go by leaving (mid-drag: the world has
+                studio.holder = None       # the last pose it was sent, nothing half-done)
+                studio._tell_control()
+        return ws
+
+    async def start_stream(app):
+        studio.loop = asyncio.get_event_loop()
+        studio.lock = asyncio.Lock()
+        app['stream'] = asyncio.ensure_future(studio.stream())
+
+    async def stop_stream(app):
+        app['stream'].cancel()
+        for c in list(studio.clients):
+            await c.ws.close()
+
+    async def favicon(_request):
+        return web.Response(status=204)
+
+    app.router.add_get('/', index)
+    app.router.add_get('/favicon.ico', favicon)
+    app.router.add_get('/ws', ws_handler)
+    app.router.add_post('/api/cmd', cmd)
+    app.router.add_get('/api/scene', scene)
+    app.router.add_static('/static/', STATIC)
+    if os.path.isdir(THREE):
+        app.router.add_static('/three/', THREE)
+    app.on_startup.append(start_stream)
+    app.on_shutdown.append(stop_stream)
+    return app
+
+
+def _token_middleware(studio):
+    @web.middleware
+    async def check_token(request, handler):
+        if studio.token is not None:
+            given = request.query.get('token') or request.headers.get('X-Studio-Token') or \
+                request.cookies.get('studio_token')
+            if not given or not secrets.compare_digest(given, studio.token):
+                return web.json_response(protocol.error(
+                    'this studio needs its token (printed at its start): ?token=... or the '
+                    'X-Studio-Token header'), status=403)
+            resp = await handler(request)
+            if request.query.get('token') and not resp.prepared:
+                resp.set_cookie('studio_token', studio.token, httponly=True, samesite='Strict')
+            return resp
+        return await handler(request)
+    return check_token

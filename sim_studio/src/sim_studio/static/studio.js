@@ -1,0 +1,302 @@
+// The studio's page: one WebSocket (/ws) carrying the versioned JSON protocol (v 1).
+'use strict';
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const token = new URLSearchParams(location.search).get('token');
+  const wsUrl = (location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/ws' +
+    (token ? '?token=' + encodeURIComponent(token) : '');
+  const studio = window.studio = {
+    frames: 0, firstFrameAt: null, poses: {}, models: {}, selected: 'mobile_device',
+    dragging: false, replies: {}, cameraFrames: 0, ready: false,
+  };
+  let ws = null, nextId = 1;
+  const pending = {};
+
+  function send(cmd) {
+    cmd.v = 1;
+    cmd.id = nextId++;
+    return new Promise((resolve) => {
+      pending[cmd.id] = resolve;
+      ws.send(JSON.stringify(cmd));
+    });
+  }
+  studio.send = send;
+
+  // -- 3D view ---------------------------------------------------------------------------
+  const canvas = $('viewport');
+  const renderer = new THREE.WebGLRenderer({canvas: canvas, antialias: true,
+                                            preserveDrawingBuffer: true});
+  const scene = new THREE.Scene();
+  scene.background = new THREE.Color(0xb0b8c0);
+  THREE.Object3D.DefaultUp.set(0, 0, 1);
+  const camera = new THREE.PerspectiveCamera(50, 1, 0.01, 200);
+  camera.up.set(0, 0, 1);
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x555555, 0.9));
+  const sun = new THREE.DirectionalLight(0xffffff, 0.6);
+  sun.position.set(3, -2, 6);
+  scene.add(sun);
+  const orbit = new THREE.OrbitControls(camera, canvas);
+  const handle = new THREE.TransformControls(camera, canvas);
+  handle.setSpace('world');
+  scene.add(handle);
+  studio.handle = handle;
+  studio.camera = camera;
+
+  function resize() {
+    const w = canvas.clientWidth, h = canvas.clientHeight;
+    if (canvas.width !== w || canvas.height !== h) {
+      renderer.setSize(w, h, false);
+      camera.aspect = w / Math.max(1, h);
+      camera.updateProjectionMatrix();
+    }
+  }
+
+  function geometry(g) {
+    if (g.kind === 'box') return new THREE.BoxBufferGeometry(g.size[0], g.size[1], g.size[2]);
+    if (g.kind === 'sphere') return new THREE.SphereBufferGeometry(g.radius, 24, 16);
+    if (g.kind === 'cylinder') {
+      const c = new THREE.CylinderBufferGeometry(g.radius, g.radius, g.length, 24);
+      c.rotateX(Math.PI / 2);           // three's cylinders stand on y, ROS's on z
+      return c;
+    }
+    if (g.kind === 'plane') return new THREE.PlaneBufferGeometry(g.size[0], g.size[1]);
+    return new THREE.BoxBufferGeometry(0.05, 0.05, 0.05);
+  }
+
+  function setPose(obj, p) {
+    obj.position.set(p.position[0], p.position[1], p.position[2]);
+    obj.quaternion.set(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
+  }
+
+  function build(sceneDesc) {
+    for (const m of sceneDesc.models) {
+      if (studio.models[m.name]) continue;
+      const root = new THREE.Group();
+      root.name = m.name;
+      let drawn = 0;
+      for (const ln of m.links) {
+        const lg = new THREE.Group();
+        setPose(lg, ln.pose);
+        for (const v of ln.visuals) {
+          const mat = new THREE.MeshLambertMaterial({
+            color: new THREE.Color(v.rgba[0], v.rgba[1], v.rgba[2]),
+            transparent: v.rgba[3] < 1, opacity: v.rgba[3], side: THREE.DoubleSide});
+          const mesh = new THREE.Mesh(geometry(v.geometry), mat);
+          setPose(mesh, v.origin);
+          lg.add(mesh);
+          drawn++;
+        }
+        root.add(lg);
+      }
+      if (!drawn) {             // a model the studio has no description of: a small box
+        root.add(new THREE.Mesh(new THREE.BoxBufferGeometry(0.1, 0.1, 0.1),
+                                new THREE.MeshLambertMaterial({color: 0xff00ff})));
+      }
+      setPose(root, m.pose);
+      scene.add(root);
+      studio.models[m.name] = root;
+      const o = document.createElement('option');
+      o.value = o.textContent = m.name;
+      $('model').appendChild(o);
+    }
+    $('model').value = studio.selected;
+    select(studio.selected);
+  }
+
+  function select(name) {
+    studio.selected = name;
+    const obj = studio.models[name];
+    if (obj) {
+      handle.attach(obj);
+      fillForm(name);
+    }
+  }
+  $('model').addEventListener('change', (e) => select(e.target.value));
+
+  function rpyOf(obj) {
+    const e = new THREE.Euler().setFromQuaternion(obj.quaternion, 'ZYX');
+    return [e.x, e.y, e.z];
+  }
+
+  function fillForm(name) {
+    const obj = studio.models[name];
+    if (!obj) return;
+    const f = $('poseform').elements, r = rpyOf(obj);
+    const vals = {x: obj.position.x, y: obj.position.y, z: obj.position.z,
+                  roll: r[0], pitch: r[1], yaw: r[2]};
+    for (const k in vals) {
+      if (document.activeElement !== f[k]) f[k].value = vals[k].toFixed(3);
+    }
+  }
+
+  // the handle: set_pose while dragging (at most every 50 ms) and once at its end
+  let lastSent = 0;
+  function sendHandlePose() {
+    const obj = handle.object;
+    if (!obj) return;
+    lastSent = performance.now();
+    send({op: 'set_pose', model: obj.name,
+          position: [obj.position.x, obj.position.y, obj.position.z], rpy: rpyOf(obj)})
+      .then(showError);
+  }
+  handle.addEventListener('dragging-changed', (e) => {
+    orbit.enabled = !e.value;
+    studio.dragging = e.value;
+    if (!e.value) sendHandlePose();
+  });
+  handle.addEventListener('objectChange', () => {
+    if (studio.dragging && performance.now() - lastSent > 50) sendHandlePose();
+  });
+  window.addEventListener('keydown', (e) => {
+    if (e.target.tagName === 'INPUT' || e.target.tagName === 'TEXTAREA') return;
+    if (e.key === 'r') handle.setMode('rotate');
+    if (e.key === 't') handle.setMode('translate');
+  });
+
+  // where the handle's arrow for an axis is on the screen (the browser test drags it)
+  studio.handlePoint = function (axis) {
+    const obj = handle.object;
+    const pos = obj.getWorldPosition(new THREE.Vector3());
+    const dist = pos.distanceTo(camera.position);
+    const f = dist * Math.min(1.9 * Math.tan(Math.PI * camera.fov / 360) / camera.zoom, 7) *
+      handle.size / 7;
+    const d = {X: [1, 0, 0], Y: [0, 1, 0], Z: [0, 0, 1]}[axis];
+    const p = pos.clone().add(new THREE.Vector3(d[0], d[1], d[2]).multiplyScalar(0.6 * f));
+    p.project(camera);
+    const rect = canvas.getBoundingClientRect();
+    return {x: rect.left + (p.x + 1) / 2 * rect.width,
+            y: rect.top + (1 - p.y) / 2 * rect.height};
+  };
+
+  function frame() {
+    resize();
+    for (const name in studio.poses) {
+      const obj = studio.models[name];
+      if (!obj || (studio.dragging && handle.object === obj)) continue;
+      const p = studio.poses[name];
+      obj.position.set(p[0], p[1], p[2]);
+      obj.quaternion.set(p[3], p[4], p[5], p[6]);
+    }
+    orbit.update();
+    renderer.render(scene, camera);
+    if (studio.ready) {
+      studio.frames++;
+      if (studio.firstFrameAt === null) studio.firstFrameAt = performance.now();
+    }
+    if (studio.frames % 10 === 1) fillForm(studio.selected);
+    requestAnimationFrame(frame);
+  }
+
+  // -- the stream and the replies ---------------------------------------------------------
+  function showError(rep) {
+    $('status').textContent = rep && !rep.ok ? rep.error : '';
+    return rep;
+  }
+
+  let cameraUrl = null;
+  function connect() {
+    ws = new WebSocket(wsUrl);
+    ws.binaryType = 'blob';
+    ws.onmessage = (ev) => {
+      if (typeof ev.data !== 'string') {
+        const url = URL.createObjectURL(ev.data);
+        $('camera').src = url;
+        if (cameraUrl) URL.revokeObjectURL(cameraUrl);
+        cameraUrl = url;
+        studio.cameraFrames++;
+        return;
+      }
+      const m = JSON.parse(ev.data);
+      if (m.type === 'reply') {
+        const r = pending[m.id];
+        delete pending[m.id];
+        if (r) r(m); else showError(m);
+      } else if (m.type === 'poses') {
+        studio.poses = m.poses;
+        studio.simTime = m.t;
+        $('simtime').textContent = m.t.toFixed(3);
+        $('rtf').textContent = m.rtf.toFixed(2);
+      } else if (m.type === 'hello') {
+        studio.name = m.name;
+        showRecording(m.recording, m.yaml);
+        send({op: 'scene'}).then((rep) => {
+          const s = rep.scene;
+          const phone = s.models.find((x) => x.name === studio.selected) || s.models[0];
+          if (phone) {
+            studio.selected = phone.name;
+            const p = phone.pose.position;
+            orbit.target.set(p[0], p[1], p[2]);
+            camera.position.set(p[0], p[1] - 0.9, p[2] + 0.6);
+          }
+          build(s);
+          studio.ready = true;
+        });
+      } else if (m.type === 'recording') {
+        showRecording(m.on, m.yaml);
+      } else if (m.type === 'control') {
+        $('control').textContent = m.you ? 'you have control' :
+          (m.holder ? 'read-only (' + m.holder + ' has control)' : '');
+      }
+    };
+    ws.onclose = () => {
+      $('status').textContent = 'disconnected from the studio; reconnecting';
+      setTimeout(connect, 1000);
+    };
+  }
+
+  function showRecording(on, yaml) {
+    studio.recording = on;
+    $('record').classList.toggle('on', on);
+    $('record').textContent = on ? 'stop recording' : 'record';
+    if (yaml !== undefined && (on || studio.recordedOnce)) $('yaml').value = yaml;
+  }
+
+  // -- controls -----------------------------------------------------------------------------
+  $('play').onclick = () => send({op: 'play'}).then(showError);
+  $('pause').onclick = () => send({op: 'pause'}).then(showError);
+  $('reset').onclick = () => send({op: 'reset'}).then(showError);
+  $('step').onclick = () => send({op: 'step', until: parseFloat($('until').value)})
+    .then(showError);
+  $('record').onclick = () => {
+    studio.recordedOnce = true;
+    send({op: 'record', on: !studio.recording}).then((rep) => {
+      showError(rep);
+      if (rep.ok) showRecording(rep.recording, rep.yaml);
+    });
+  };
+  $('poseform').onsubmit = (e) => {
+    e.preventDefault();
+    const f = e.target.elements, n = (k) => parseFloat(f[k].value);
+    send({op: 'set_pose', model: $('model').value, position: [n('x'), n('y'), n('z')],
+          rpy: [n('roll'), n('pitch'), n('yaw')]}).then(showError);
+  };
+  let checkTimer = null;
+  $('yaml').addEventListener('input', () => {
+    clearTimeout(checkTimer);
+    checkTimer = setTimeout(() => send({op: 'check', yaml: $('yaml').value}).then((rep) => {
+      $('problems').textContent = rep.ok ? rep.problems.join('\n') : rep.error;
+    }), 300);
+  });
+  $('run').onclick = () => {
+    $('verdicts').textContent = 'running...';
+    $('run').disabled = true;
+    send({op: 'run', yaml: $('yaml').value}).then((rep) => {
+      $('run').disabled = false;
+      const v = $('verdicts');
+      v.textContent = '';
+      if (!rep.ok) { v.textContent = 'ERROR ' + rep.error; return; }
+      for (const p of rep.problems || []) v.appendChild(line('ERROR', p));
+      for (const x of rep.verdicts) v.appendChild(line(x.status, x.line));
+      v.appendChild(line(rep.status, 'scenario: ' + rep.status));
+    });
+  };
+  function line(cls, text) {
+    const d = document.createElement('div');
+    d.className = cls;
+    d.textContent = text;
+    return d;
+  }
+
+  connect();
+  requestAnimationFrame(frame);
+})();

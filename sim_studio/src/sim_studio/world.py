@@ -1,0 +1,217 @@
+"""The studio's link to the running world through ROS: the same services the testing
+instance's actions call (/gazebo/set_model_state, <ns>/inject_touch, <ns>/press_button,
+/gazebo/set_environment, /gazebo/set_sensor_fault, /gazebo/step_world, pause/unpause,
+reset), and the latest of what the world publishes (/gazebo/model_states, /clock, the
+phone camera's image). The subscribers only keep the latest message: nothing here can hold
+the world back."""
+import math
+import re
+import threading
+import time
+
+__all__ = ['WorldLink', 'WorldError']
+
+
+class WorldError(RuntimeError):
+    """A world service refused or failed; the message says which and why."""
+
+
+def quat_from_rpy(r, p, y):
+    from testing_instance.motion import quat_from_rpy as q
+    return q(r, p, y)
+
+
+class WorldLink(object):
+    def __init__(self, rospy, camera_topic='/mobile_device/image_raw'):
+        self.rospy = rospy
+        self.camera_topic = camera_topic
+        self.states = None            # the latest ModelStates
+        self.states_seq = 0
+        self.image = None             # the latest sensor_msgs/Image of camera_topic
+        self.image_seq = 0
+        self.clock = 0.0              # the latest /clock (s)
+        self._rtf = []                # [(wall, sim)] samples of the last seconds
+        self._proxies = {}
+        self._display = {}            # model -> (width, height) px
+        self._lock = threading.Lock()
+        self.subs = []
+
+    def start(self):
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import Image
+        from mobile_device_sim.msg import ModelStates
+        rospy = self.rospy
+        self.subs = [
+            rospy.Subscriber('/gazebo/model_states', ModelStates, self._on_states, queue_size=1),
+            rospy.Subscriber('/clock', Clock, self._on_clock, queue_size=1),
+            rospy.Subscriber(self.camera_topic, Image, self._on_image, queue_size=1,
+                             buff_size=2 ** 24),
+        ]
+
+    def close(self):
+        for s in self.subs:
+            s.unregister()
+        for p in self._proxies.values():
+            try:
+                p.close()
+            except Exception:  # noqa: BLE001 - best effort at the end
+                pass
+
+    # -- what the world publishes (rospy's threads) -----------------------------------------
+    def _on_states(self, msg):
+        self.states = msg
+        self.states_seq += 1
+
+    def _on_image(self, msg):
+        self.image = msg
+        self.image_seq += 1
+
+    def _on_clock(self, msg):
+        t = msg.clock.to_sec()
+        self.clock = t
+        now = time.monotonic()
+        self._rtf.append((now, t))
+        while self._rtf and now - self._rtf[0][0] > 2.0:
+            self._rtf.pop(0)
+
+    def rtf(self):
+        """Real-time factor over the last ~2 s of /clock (0 while paused)."""
+        s = list(self._rtf)
+        if len(s) < 2 or time.monotonic() - s[-1][0] > 0.5:
+            return 0.0
+        dw = s[-1][0] - s[0][0]
+        return (s[-1][1] - s[0][1]) / dw if dw > 0 else 0.0
+
+    def model_names(self):
+        st = self.states
+        return set(st.name) if st is not None else set()
+
+    def poses(self):
+        """{model: [x, y, z, qx, qy, qz, qw]} of the latest /gazebo/model_states."""
+        st = self.states
+        if st is None:
+            return {}
+        out = {}
+        for n, p in zip(st.name, st.pose):
+            out[n] = [round(v, 6) for v in (p.position.x, p.position.y, p.position.z,
+                                             p.orientation.x, p.orientation.y,
+                                             p.orientation.z, p.orientation.w)]
+        return out
+
+    # -- services ---------------------------------------------------------------------------
+    def _proxy(self, name, typ):
+        with self._lock:
+            if name not in self._proxies:
+                self._proxies[name] = self.rospy.ServiceProxy(name, typ, persistent=True)
+            return self._proxies[name]
+
+    def _call(self, name, typ, *args):
+        try:
+            res = self._proxy(name, typ)(*args)
+        except Exception as e:  # noqa: BLE001 - gone service, refused connection
+            with self._lock:
+                px = self._proxies.pop(name, None)
+            if px is not None:
+                px.close()
+            raise WorldError('service %s failed: %s' % (name, e))
+        if hasattr(res, 'success') and not res.success:
+            raise WorldError('%s: %s' % (name, res.status_message))
+        return res
+
+    def set_pose(self, model, position, rpy):
+        from mobile_device_sim.msg import ModelState
+        from mobile_device_sim.srv import SetModelState
+        s = ModelState()
+        s.model_name = model
+        s.pose.position.x, s.pose.position.y, s.pose.position.z = position
+        q = quat_from_rpy(*rpy)
+        (s.pose.orientation.x, s.pose.orientation.y, s.pose.orientation.z,
+         s.pose.orientation.w) = (float(v) for v in q)
+        self._call('/gazebo/set_model_state', SetModelState, s)
+
+    def get_pose(self, model):
+        from mobile_device_sim.srv import GetModelState
+        res = self._call('/gazebo/get_model_state', GetModelState, model, '')
+        p, q = res.pose.position, res.pose.orientation
+        return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
+
+    def display_size(self, model):
+        """(width, height) px of ``model``'s touch display: asked once from its inject_touch
+        service (a touch outside the display is refused with its size; nothing happens)."""
+        if model not in self._display:
+            from mobile_device_sim.srv import InjectTouch
+            try:
+                res = self._proxy('/%s/inject_touch' % model, InjectTouch)(
+                    -1.0, -1.0, 0.1, 0.5, -1.0, -1.0)
+                text = res.status_message
+            except Exception as e:  # noqa: BLE001
+                raise WorldError('service /%s/inject_touch failed: %s' % (model, e))
+            m = re.search(r'0\.\.(\d+), 0\.\.(\d+) px', text or '')
+            if res.success or not m:
+                raise WorldError('/%s/inject_touch did not tell its display size (%r)'
+                                 % (model, text))
+            self._display[model] = (int(m.group(1)), int(m.group(2)))
+        return self._display[model]
+
+    def touch(self, model, x, y, duration):
+        from mobile_device_sim.srv import InjectTouch
+        w, h = self.display_size(model)
+        self._call('/%s/inject_touch' % model, InjectTouch, min(x * w, w - 1e-6),
+                   min(y * h, h - 1e-6), duration, 0.5, -1.0, -1.0)
+        return w, h
+
+    def press_button(self, model, button, duration):
+        from mobile_device_sim.srv import PressButton
+        self._call('/%s/press_button' % model, PressButton, button, duration)
+
+    def set_environment(self, values):
+        from mobile_device_sim.msg import EnvironmentValue
+        from mobile_device_sim.srv import SetEnvironment
+        self._call('/gazebo/set_environment', SetEnvironment,
+                   [EnvironmentValue(name=k, value=float(v)) for k, v in sorted(values.items())])
+
+    def fault(self, model, sensor, fault, value):
+        from mobile_device_sim.srv import SetSensorFault
+        self._call('/gazebo/set_sensor_fault', SetSensorFault, model, sensor, fault,
+                   float(value))
+
+    def play(self):
+        from std_srvs.srv import Empty
+        self._call('/gazebo/unpause_physics', Empty)
+
+    def pause(self):
+        from std_srvs.srv import Empty
+        self._call('/gazebo/pause_physics', Empty)
+
+    def reset(self):
+        from std_srvs.srv import Empty
+        self._call('/gazebo/reset_world', Empty)
+
+    def step(self, until):
+        from mobile_device_sim.srv import StepWorld
+        res = self._call('/gazebo/step_world', StepWorld, float(until), '', False)
+        return res.sim_time
+
+    def camera_jpeg(self, quality=70):
+        """The latest camera image as JPEG bytes (None: none yet)."""
+        msg = self.image
+        if msg is None:
+            return None
+        import cv2
+        import numpy as np
+        enc = msg.encoding
+        ch = {'rgb8': 3, 'bgr8': 3, 'rgba8': 4, 'bgra8': 4, 'mono8': 1}.get(enc)
+        if ch is None:
+            return None
+        a = np.frombuffer(msg.data, np.uint8)[:msg.height * msg.step].reshape(
+            msg.height, msg.step)[:, :msg.width * ch].reshape(msg.height, msg.width, ch)
+        if enc.startswith('rgb'):
+            a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGR if ch == 4 else cv2.COLOR_RGB2BGR)
+        elif enc == 'bgra8':
+            a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
+        ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
+        return buf.tobytes() if ok else None
+
+
+def finite(*vals):
+    return all(math.isfinite(v) for v in vals)

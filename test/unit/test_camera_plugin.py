@@ -66,6 +66,14 @@ class World(object):
         m = self.models[model_name]
         return m.pose * m.link_poses()[link_name]
 
+    def pass_state(self, entity):
+        model, link = entity.split('::')
+        return self.link_pose(model, link), np.zeros(3), np.zeros(3)
+
+    def rng(self, *keys):
+        from sim_world.plugins.sensor import stable_seed
+        return np.random.default_rng(stable_seed(1, *keys))
+
     def ros_now(self):
         return None
 
@@ -261,6 +269,7 @@ def test_rate_follows_sim_time_and_set_update_rate():
 
 
 class _Pub(object):
+    """A rospy publisher stand-in: ``n`` subscribers, what was published in ``sent``."""
     def __init__(self, n=0):
         self.n, self.sent = n, []
 
@@ -270,27 +279,39 @@ class _Pub(object):
     def publish(self, msg):
         self.sent.append(msg)
 
+    def unregister(self):
+        pass
+
+
+def _fake_pubs(p):
+    """Each output of the camera publishes to a _Pub (as with ROS, nobody subscribed):
+    {output key: _Pub}."""
+    pubs = {}
+    for key, o in p.outputs.items():
+        o.ros = pubs[key] = _Pub()
+    return pubs
+
 
 def test_renders_only_while_subscribed_and_points_only_for_points_subscribers():
     p, world = _load(_variant(imageSize='32 24'))
     world.ros_now = lambda: None
-    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    pubs = _fake_pubs(p)
     frames0 = world.renderer.frames
     p.update(0.0)
     assert p.frames == 0 and world.renderer.frames == frames0          # nobody looks
-    assert p._pubs['info'].sent == []
-    p._pubs['image'].n = 1                                             # the image
+    assert pubs['camera_info'].sent == []
+    pubs['image'].n = 1                                             # the image
+    pubs['camera_info'].n = 1                                       # and its info
     p.update(0.1)
-    assert p.frames == 1 and len(p._pubs['image'].sent) == 1 and len(p._pubs['info'].sent) == 1
-    assert p._pubs['points'].sent == [] and p.last_cloud is None
-    p._pubs['image'].n = 0
-    p._pubs['points'].n = 1                                            # points only
+    assert p.frames == 1 and len(pubs['image'].sent) == 1 and len(pubs['camera_info'].sent) == 1
+    assert pubs['points'].sent == [] and p.last_cloud is None
+    pubs['image'].n = 0
+    pubs['points'].n = 1                                            # points only
     p.update(0.2)
-    assert p.frames == 2 and len(p._pubs['points'].sent) == 1
-    cloud = p._pubs['points'].sent[0]
+    assert p.frames == 2 and len(pubs['points'].sent) == 1
+    cloud = pubs['points'].sent[0]
     assert (cloud.width, cloud.height) == (32, 24)
-    assert p._pubs['image'].sent[-1].header.stamp == p._pubs['info'].sent[-1].header.stamp
-    p._pubs = {}
+    assert pubs['image'].sent[-1].header.stamp == pubs['camera_info'].sent[-1].header.stamp
 
 
 def test_a_subscriber_in_this_world_not_connected_yet_makes_the_renderer_ahead(monkeypatch):
@@ -298,11 +319,11 @@ def test_a_subscriber_in_this_world_not_connected_yet_makes_the_renderer_ahead(m
     it a few hundred ms later, after a scenario's first step. will_draw counts it already,
     so the renderer is made in the start-up, not in the timeline's first slice; the frames
     themselves still wait for the connection (wanted)."""
-    from sim_world import fastpub
+    from sim_world import transport
     p, world = _load(_variant(imageSize='32 24'))
-    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    pubs = _fake_pubs(p)
     here = set()
-    monkeypatch.setattr(fastpub, 'subscribed_here', lambda topic: topic in here)
+    monkeypatch.setattr(transport, 'subscribed_here', lambda topic: topic in here)
     assert not p.will_draw()                                  # nobody anywhere
     here.add(p.info_topic)
     assert not p.will_draw()                                  # camera_info needs no frame
@@ -311,29 +332,27 @@ def test_a_subscriber_in_this_world_not_connected_yet_makes_the_renderer_ahead(m
     here.clear()
     here.add(p.points_topic)
     assert p.will_draw()
-    p._pubs = {}
 
 
 def test_camera_info_alone_is_published_at_every_tick_without_a_frame():
     p, world = _load(_variant(imageSize='32 24'))
     stamps = iter(range(100))
     world.ros_now = lambda: next(stamps)
-    p._pubs = {'image': _Pub(), 'info': _Pub(), 'points': _Pub()}
+    pubs = _fake_pubs(p)
     frames0 = world.renderer.frames
-    p._pubs['info'].n = 1                                              # camera_info only
+    pubs['camera_info'].n = 1                                              # camera_info only
     assert not p.will_draw()                                           # no renderer for it
     for k in range(3):
         p.update(0.1 * k)
     assert p.frames == 0 and world.renderer.frames == frames0          # nothing drawn
-    infos = p._pubs['info'].sent
+    infos = pubs['camera_info'].sent
     assert [m.header.stamp for m in infos] == [0, 1, 2]                # one per tick
     assert (infos[0].width, infos[0].height) == (32, 24) and infos[0].K[0] == p.camera.intr.fx
-    assert p._pubs['image'].sent == [] and p.last_info is infos[-1]
-    p._pubs['image'].n = 1                                             # now the image too
+    assert pubs['image'].sent == [] and p.last_info is infos[-1]
+    pubs['image'].n = 1                                             # now the image too
     p.update(0.3)
-    assert p.frames == 1 and len(infos) == 4 and len(p._pubs['image'].sent) == 1
-    assert infos[-1].header.stamp == p._pubs['image'].sent[0].header.stamp
-    p._pubs = {}
+    assert p.frames == 1 and len(infos) == 4 and len(pubs['image'].sent) == 1
+    assert infos[-1].header.stamp == pubs['image'].sent[0].header.stamp
 
 
 def test_depth_camera_info_alone_draws_nothing():
@@ -341,16 +360,15 @@ def test_depth_camera_info_alone_draws_nothing():
     root.find('gazebo_ros_camera').set('plugin', 'libgazebo_ros_openni_kinect.so')
     p, world = _load(ET.tostring(root, encoding='unicode'))
     world.ros_now = lambda: None
-    p._pubs = {k: _Pub() for k in ('image', 'info', 'points', 'depth', 'depth_info')}
+    pubs = _fake_pubs(p)
     frames0 = world.renderer.frames
-    p._pubs['depth_info'].n = 1
+    pubs['depth_info'].n = 1
     p.update(0.0)
     assert p.frames == 0 and world.renderer.frames == frames0
-    assert len(p._pubs['depth_info'].sent) == 1 and p._pubs['info'].sent == []
-    p._pubs['image'].n = 1                      # a frame without depth: its depth info too
+    assert len(pubs['depth_info'].sent) == 1 and pubs['camera_info'].sent == []
+    pubs['image'].n = 1                      # a frame without depth: its depth info too
     p.update(0.1)
-    assert p.frames == 1 and p._pubs['depth'].sent == [] and len(p._pubs['depth_info'].sent) == 2
-    p._pubs = {}
+    assert p.frames == 1 and pubs['depth'].sent == [] and len(pubs['depth_info'].sent) == 2
 
 
 def test_depth_camera_publishes_depth_image_and_cutoffs(caplog):
@@ -363,18 +381,18 @@ def test_depth_camera_publishes_depth_image_and_cutoffs(caplog):
     assert p.depth_info_topic == '/mobile_device/depth/camera_info'
     assert p.cutoff == (0.1, 0.45)
     world.ros_now = lambda: None
-    p._pubs = {k: _Pub() for k in ('image', 'info', 'points', 'depth', 'depth_info')}
-    p._pubs['depth'].n = 1
+    pubs = _fake_pubs(p)
+    pubs['depth'].n = 1
     p.update(0.0)
-    d = p._pubs['depth'].sent[0]
+    d = pubs['depth'].sent[0]
     assert (d.encoding, d.width, d.height, d.step) == ('32FC1', 40, 30, 160)
     z = np.frombuffer(d.data, '<f4').reshape(30, 40)
     # the red square 0.489 m under the camera fills the centre of the image
     assert abs(z[15, 20] - 0.489) < 0.002
-    assert p._pubs['points'].sent == []                     # nobody asked for points
-    p._pubs['points'].n = 1
+    assert pubs['points'].sent == []                     # nobody asked for points
+    pubs['points'].n = 1
     p.update(0.1)
-    pts = np.frombuffer(p._pubs['points'].sent[0].data, np.float32).reshape(30, 40, 4)
+    pts = np.frombuffer(pubs['points'].sent[0].data, np.float32).reshape(30, 40, 4)
     assert np.isnan(pts[:, :, 2]).all()                     # everything beyond 0.45 m: cut
     # a plain camera has no depth topic unless it names one
     q, _ = _load(_variant(imageSize='8 6'))
@@ -431,5 +449,160 @@ def test_rate_change_applies_at_once_on_the_world():
         # then every 1/30 s: 0.134, 0.167, 0.200 (the old code: none before t = 2 s)
         assert cam.frames - before == 4
         assert cam.update_rate == 30.0
+    finally:
+        w.shutdown()
+
+
+# -- the camera on the sensor base: noise, faults, the fault service's lookup -------------------
+def _noisy_urdf(noise='', rate=20, size=(32, 24), name='cam', plugin_params=''):
+    """A camera on one link, looking at the office's empty wall colour (the background):
+    ``noise``: the body of the sensor's <camera><noise> (Gazebo's SDF 1.4+ syntax)."""
+    n = '<noise>%s</noise>' % noise if noise else ''
+    return '''<robot name="%s"><link name="base">
+      <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
+      <gazebo reference="base"><turnGravityOff>true</turnGravityOff>
+        <sensor type="camera" name="c"><update_rate>%g</update_rate>
+          <camera><image><width>%d</width><height>%d</height></image>%s</camera>
+          <plugin name="cc" filename="libgazebo_ros_camera.so">%s</plugin></sensor></gazebo>
+      </robot>''' % (name, rate, size[0], size[1], n, plugin_params)
+
+
+def _camera_world(urdf, seed=1, parallel=False):
+    from sim_world.urdf import parse_urdf
+    from sim_world.world import World as RealWorld
+    w = RealWorld(seed=seed)
+    w.parallel_render = parallel
+    w.add_model(parse_urdf(urdf), pose=Pose((0, 0, 1)))
+    return w, w.plugins['cam'][0]
+
+
+def _frames(urdf, steps=200, seed=1, parallel=False, fault=None, at=0):
+    """[(stamp, rgb bytes)] of each image the camera published; ``fault``: (kind, value)
+    set after ``at`` steps."""
+    w, cam = _camera_world(urdf, seed, parallel)
+    got = []
+    try:
+        out = cam.outputs['image']
+        orig = out.publish
+
+        def rec(msg):
+            got.append((msg.header.stamp.to_nsec(), bytes(msg.data)))
+            orig(msg)
+        out.publish = rec
+        w.step(at)
+        if fault:
+            cam.set_fault(*fault)
+        w.step(steps - at)
+        return got, cam
+    finally:
+        w.shutdown()
+
+
+def test_no_noise_by_default_the_image_is_the_rendered_picture_byte_for_byte():
+    """No <noise> (as Gazebo's camera without it), or a zero one: the published pixels are
+    the renderer's, unchanged."""
+    w, cam = _camera_world(_noisy_urdf())
+    try:
+        w.step(1)
+        clean = cam.camera.render(w.renderer, w.link_pose('cam', 'base'))[0]
+        assert bytes(cam.last_image.data) == clean.tobytes() and cam.last_rgb is not None
+        assert not cam.has_noise()
+        with pytest.raises(ValueError) as e:
+            cam.set_fault('noise', 10.0)
+        assert 'no noise' in str(e.value) and 'CameraPlugin' in str(e.value)
+    finally:
+        w.shutdown()
+    zero, _ = _frames(_noisy_urdf('<type>gaussian</type><mean>0</mean><stddev>0</stddev>'), 60)
+    plain, _ = _frames(_noisy_urdf(), 60)
+    assert zero == plain and len(plain) == 2           # t = 0.001, 0.05 s (20 Hz)
+
+
+NOISE = '<type>gaussian</type><mean>0.0</mean><stddev>0.02</stddev>'
+
+
+def test_gazebo_camera_noise_on_pixel_values_seeded():
+    """<noise> gaussian, stddev 0.02 of the 0..1 pixel value: one draw per pixel added to
+    each channel; the same seed gives the same frames, another seed others, and frames
+    rendered in the renderer's worker thread get the noise of their tick."""
+    plain, _ = _frames(_noisy_urdf(), 200)
+    noisy, cam = _frames(_noisy_urdf(NOISE), 200)
+    assert cam.has_noise() and len(noisy) == len(plain) == 5
+    a = np.frombuffer(plain[0][1], np.uint8).reshape(24, 32, 3).astype(float)
+    b = np.frombuffer(noisy[0][1], np.uint8).reshape(24, 32, 3).astype(float)
+    d = (b - a) / 255.0
+    assert abs(d.std() - 0.02) < 0.004 and abs(d.mean()) < 0.004
+    # the same draw on every channel of a pixel (up to rounding)
+    assert np.abs(d[:, :, 0] - d[:, :, 1]).max() <= 1.0 / 255 + 1e-9
+    assert len(set(f for _, f in noisy)) == len(noisy)        # a new draw every frame
+    assert _frames(_noisy_urdf(NOISE), 200)[0] == noisy         # same seed, same frames
+    assert _frames(_noisy_urdf(NOISE), 200, seed=2)[0] != noisy
+    assert _frames(_noisy_urdf(NOISE), 200, parallel=True)[0] == noisy
+
+
+def test_noise_mean_shifts_and_clamps():
+    got, _ = _frames(_noisy_urdf('<type>gaussian</type><mean>0.5</mean><stddev>0</stddev>'),
+                     60)
+    rgb = np.frombuffer(got[0][1], np.uint8)
+    assert (rgb == 255).all()                      # background ~0.7 + 0.5: clamped to 1
+
+
+def test_faults_through_the_base_gate():
+    """drop: no image, no camera_info, no frame drawn; freeze: the last frame again with
+    new stamps; noise x5: five times the sigma."""
+    base, _ = _frames(_noisy_urdf(NOISE), 300)
+    k = len([t for t, _ in base if t <= 100000000])      # frames up to the fault (t = 0.1 s)
+    dropped, cam = _frames(_noisy_urdf(NOISE), 300, fault=('drop', 0.0), at=100)
+    assert k == 3 and dropped == base[:k] and cam.frames == k
+    frozen, _ = _frames(_noisy_urdf(NOISE), 300, fault=('freeze', 0.0), at=100)
+    assert len(frozen) == len(base) == 7
+    assert [f for _, f in frozen[k:]] == [base[k - 1][1]] * (7 - k)   # the last frame again
+    assert [t for t, _ in frozen] == [t for t, _ in base]            # with new stamps
+    loud, _ = _frames(_noisy_urdf(NOISE), 300, fault=('noise', 5.0), at=100)
+    plain, _ = _frames(_noisy_urdf(), 300)
+    a = np.frombuffer(plain[-1][1], np.uint8).astype(float)
+    b = np.frombuffer(loud[-1][1], np.uint8).astype(float)
+    assert abs(((b - a) / 255.0).std() - 0.1) < 0.02
+    assert loud[:k] == base[:k]
+
+
+def test_freeze_and_drop_silence_camera_info_too():
+    w, cam = _camera_world(_noisy_urdf())
+    try:
+        infos = []
+        out = cam.outputs['camera_info']
+        orig = out.publish
+        out.publish = lambda m: (infos.append(m.header.stamp.to_nsec()), orig(m))
+        w.step(100)
+        n = len(infos)
+        cam.set_fault('drop')
+        w.step(100)
+        assert len(infos) == n == 3                    # t = 0.001, 0.05, 0.1 s
+        cam.set_fault('freeze')
+        w.step(100)
+        assert len(infos) == 5 and infos[-1] > infos[-2]           # repeated, new stamps
+        cam.set_fault('none')
+        w.step(100)
+        assert len(infos) == 7
+    finally:
+        w.shutdown()
+
+
+@pytest.mark.parametrize('key', ['cc', 'libgazebo_ros_camera.so', 'image_raw',
+                                 '/cam/camera_info', 'cam/image_raw'])
+def test_the_fault_service_finds_the_camera(key):
+    """/gazebo/set_sensor_fault and the scenario's fault action look the sensor up with
+    world.find_plugins and set the fault with inject_fault: the camera by its plugin name,
+    its library name or either of its topics."""
+    from sim_world.plugins.sensor import inject_fault
+    w, cam = _camera_world(_noisy_urdf(plugin_params='<robotNamespace>cam</robotNamespace>'))
+    try:
+        assert cam.image_topic == '/cam/image_raw'
+        found = w.find_plugins('cam', key)
+        assert found == [cam]
+        inject_fault(found, 'freeze')
+        assert cam.fault == 'freeze'
+        with pytest.raises(ValueError) as e:
+            inject_fault(found, 'noise', 2.0)             # no noise to scale: refused
+        assert 'no noise' in str(e.value) and cam.fault == 'freeze'
     finally:
         w.shutdown()

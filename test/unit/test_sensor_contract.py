@@ -62,7 +62,7 @@ def _run(fault=None, value=0.0):
     w = World(physics='ode', seed=11)
     w.load_world_file(OFFICE)
     w.add_model(load_urdf_file(PHONE), pose=Pose((6.8, -3.0, 1.0)))
-    for name, ps in w.plugins.items():        # cameras and video textures: not stepped here
+    for name, ps in w.plugins.items():        # video textures: not stepped here
         for p in ps:
             if not isinstance(p, Device):
                 p.shutdown()
@@ -93,8 +93,11 @@ def _run(fault=None, value=0.0):
                 orig = o.publish
 
                 def rec(msg, o=o, orig=orig, p=p):
+                    # the tick a message belongs to: its stamp (a camera's frame is
+                    # published by the renderer's thread, while the world steps on)
+                    st = getattr(getattr(msg, 'header', None), 'stamp', None)
                     seen.setdefault((type(p).__name__, o.key), []).append(
-                        (w.sim_time, content(msg)))
+                        (w.sim_time if st is None else round(st.to_sec(), 6), content(msg)))
                     orig(msg)
                 o.publish = rec
         by['TouchScreen'].inject_touch(100, 200, 0.05)

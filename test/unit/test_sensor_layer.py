@@ -190,6 +190,67 @@ def test_bad_sdf_noise_is_one_clear_line(noise, line):
     assert str(e.value) == line
 
 
+def test_sdf_1_4_noise_with_a_type_element():
+    """Gazebo's camera and ray <noise> give the type as a child element (SDF 1.4+)."""
+    from sim_world.plugins.error_models import _sdf_noise
+    from sim_world.plugins.params import ParamError
+    kw = _sdf_noise(ET.fromstring('<noise><type>gaussian</type><mean>0.1</mean>'
+                                  '<stddev>0.007</stddev></noise>'), 1)
+    assert kw['offset'] == 0.1 and kw['gaussian_noise'] == 0.007
+    assert _sdf_noise(ET.fromstring('<noise><type>none</type><stddev>1</stddev></noise>'), 1) \
+        == {}
+    with pytest.raises(ParamError) as e:
+        _sdf_noise(ET.fromstring('<noise><type>pink</type></noise>'), 1)
+    assert "got 'pink'" in str(e.value)
+
+
+def test_field_noise_identity_keeps_the_array_and_draws_per_pixel():
+    from sim_world.plugins.error_models import FieldNoise
+    img = np.full((40, 30, 3), 100, np.uint8)
+    assert FieldNoise(ErrorModel()).apply_uint8(img) is img
+    m = ErrorModel(gaussian_noise=0.05, offset=0.1)
+    a, b = FieldNoise(m, seed=3).apply_uint8(img), FieldNoise(m, seed=3).apply_uint8(img)
+    assert np.array_equal(a, b) and not np.array_equal(a, FieldNoise(m, 4).apply_uint8(img))
+    d = a.astype(float) / 255 - 100 / 255.0
+    assert abs(d.mean() - 0.1) < 0.01 and abs(d.std() - 0.05) < 0.01
+    m.noise_scale = 0.0                                   # a 'noise' fault of 0: the offset
+    assert np.all(FieldNoise(m, 3).apply_uint8(img) == 126)
+
+
+SLOW = """<robot name="r"><link name="base">
+  <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>
+  <gazebo reference="base"><turnGravityOff>true</turnGravityOff>
+    <sensor type="imu" name="s">%s
+      <plugin name="p" filename="libgazebo_ros_imu.so"><bodyName>base</bodyName>%s</plugin>
+    </sensor></gazebo></robot>"""
+
+
+@pytest.mark.parametrize('sensor, plugin, hz', [
+    ('<update_rate>30</update_rate>', '<updateRate>100</updateRate>', 30.0),
+    ('<update_rate>100</update_rate>', '<updateRate>30</updateRate>', 30.0),
+    ('<update_rate>30</update_rate>', '<updateRate>0</updateRate>', 30.0),
+    ('<update_rate>0</update_rate>', '<updateRate>0</updateRate>', 0.0),
+    ('', '<updateRate>7</updateRate>', 7.0),
+    ('<update_rate>-3</update_rate>', '<updateRate>20</updateRate>', 20.0),
+    ('<update_rate>30</update_rate>', '<updatePeriod>0.5</updatePeriod>', 2.0),
+])
+def test_a_plugin_in_a_sensor_runs_at_the_slowest_rate_given(sensor, plugin, hz, caplog):
+    """Gazebo's sensor plugins: the sensor updates at its rate, the plugin publishes at most
+    at its own; the base's timer takes the slowest positive one (each bad one: a line)."""
+    w = World(seed=1)
+    try:
+        with caplog.at_level(logging.ERROR):
+            w.add_model(parse_urdf(SLOW % (sensor, plugin)), pose=Pose((0, 0, 1)))
+        (p,) = w.plugins['r']
+        assert p.timer.rate == hz
+        bad = [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR]
+        assert len(bad) == ('-3' in sensor)
+        if bad:
+            assert "updateRate must be a number >= 0, got '-3'" in bad[0]
+    finally:
+        w.shutdown()
+
+
 # -- seeds --------------------------------------------------------------------------------------
 def test_world_generators_depend_on_seed_and_names_only():
     a, b, c = World(seed=7), World(seed=7), World(seed=8)

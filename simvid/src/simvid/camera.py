@@ -15,28 +15,52 @@ Reads both URDF syntaxes::
       </camera>
       <plugin name="c" filename="libgazebo_ros_camera.so"> <cameraName>cam</cameraName> ...
 
-Publishes ``image_raw`` (rgb8), ``camera_info`` (same stamp, every frame) and ``points``
-(PointCloud2, only while subscribed), all stamped with sim time; subscribes ``set_hfov``
-(radians) and ``set_update_rate`` (Hz) next to the image topic. Renders only while someone
-subscribes to the image, the points or the depth image: a subscriber of ``camera_info``
-alone gets it at the camera's rate without a frame drawn (Gazebo's camera publishes it only
-with images; a recording of every non-image topic would pay a render per message).
-Registered as ``libgazebo_ros_openni_kinect.so`` / ``libgazebo_ros_depth_camera.so``
-it also publishes ``depth/image_raw`` (32FC1, metres along the optical axis, NaN where
-nothing is seen; ``depthImageTopicName``) and ``depth/camera_info``
-(``depthImageCameraInfoTopicName``); ``pointCloudCutoff``/``pointCloudCutoffMax`` limit the
-range of the points. The camera looks along the link's +x (z up in the image); points are in the
-optical frame (x right, y down, z forward) of ``frameName``.
+It is a sensor of the plugin SDK (``sim_world.plugins.sensor.Sensor``), declared like the
+barometer: a Param table, an error model, a rate, outputs and pure message builders; the
+base owns the update, subscriber gating, faults and publishing.
+
+- **outputs**: ``image`` (``imageTopicName``, sensor_msgs/Image rgb8 or ``imageFormat``),
+  ``camera_info`` (same stamp, every frame), ``points`` (PointCloud2, only while
+  subscribed), all stamped with sim time. Renders only while someone subscribes to the
+  image, the points or the depth image: a subscriber of ``camera_info`` alone gets it at
+  the camera's rate without a frame drawn (Gazebo's camera publishes it only with images; a
+  recording of every non-image topic would pay a render per message). Registered as
+  ``libgazebo_ros_openni_kinect.so`` / ``libgazebo_ros_depth_camera.so`` it also publishes
+  ``depth`` (``depthImageTopicName``, default ``depth/image_raw``: 32FC1, metres along the
+  optical axis, NaN where nothing is seen) and ``depth_info``
+  (``depthImageCameraInfoTopicName``); ``pointCloudCutoff``/``pointCloudCutoffMax`` limit
+  the range of the points. Subscribes ``set_hfov`` (radians) and ``set_update_rate`` (Hz)
+  next to the image topic.
+- **rate**: the base's timer: ``updateRate`` of the plugin and of its ``<sensor>``, the
+  slowest positive one (2011: sensor 30, controller 100 -> 30 Hz); 0 every step.
+- **error model**: Gazebo's camera ``<noise>`` (``<sensor><camera><noise><type>gaussian
+  </type><mean>0</mean><stddev>0.007</stddev></noise>``; or the error model's rows
+  ``gaussianNoise``, ``offset``... on the plugin), on pixel values in 0..1: one draw per
+  pixel added to each channel, clamped to 0..1 (``sim_world.plugins.error_models.
+  FieldNoise``), from the world's seeded generators. Without it (the default, as Gazebo's
+  camera without ``<noise>``) the image is the rendered picture, byte for byte.
+- **faults** (the base's gate, ``/gazebo/set_sensor_fault`` with the plugin's name, its
+  library name or one of its topics): ``drop`` publishes nothing (no frame drawn);
+  ``freeze`` repeats the last frame and camera_info with new stamps; ``noise`` multiplies
+  the noise's sigma (refused for a camera without noise).
+
+Frames render in the renderer's worker thread while the world steps on
+(``world.parallel_render``): ``measure`` returns a ``Pending`` that the frame resolves
+there, and the base publishes its messages then, stamped with the tick's sim time. The
+camera looks along the link's +x (z up in the image); points are in the optical frame (x
+right, y down, z forward) of ``frameName``.
 """
 import math
 import threading
 
-from sim_world.plugins import Plugin, PluginError, register
-from sim_world import fastpub
+from sim_world.plugins import PluginError, register
+from sim_world import transport
+from sim_world.plugins.error_models import FieldNoise
+from sim_world.plugins.params import Param
+from sim_world.plugins.sensor import Pending, Sensor
 from .camera_model import IMAGE_FORMATS, SimCamera, CameraModelError
-from sim_world.plugins.params import Param, parse_all
 
-__all__ = ['CameraPlugin']
+__all__ = ['CameraPlugin', 'Frame']
 
 def _image_size(text):
     parts = text.replace(',', ' ').split()
@@ -51,7 +75,7 @@ _PIXELS = (1, 8192)
 
 RATE_ROW = Param('updateRate', float, 0.0, aliases=('update_rate',), unit='Hz', check='>=0',
                  doc='Hz of sim time (0: every step); given on the plugin and on its sensor '
-                     '(2011: sensor 30, controller 100) the slowest wins')
+                     '(2011: sensor 30, controller 100) the slowest wins (the sensor base)')
 
 #: the camera's parameters, both URDF syntaxes (thesis table 4.1 and Gazebo classic's SDF)
 CAMERA_PARAMS = [
@@ -87,42 +111,66 @@ CAMERA_PARAMS = [
 ]
 
 
+class Frame(object):
+    """What the camera measured at one tick: ``rgb`` (HxWx3 uint8, its noise applied) or
+    None (nobody wants a frame: the camera_info alone), ``depth`` (HxW float32 metres) or
+    None."""
+    __slots__ = ('rgb', 'depth')
+
+    def __init__(self, rgb=None, depth=None):
+        self.rgb, self.depth = rgb, depth
+
+
+class _Ticket(Pending):
+    """A frame on its way from the renderer, with the noise of its tick."""
+    __slots__ = ('noise',)
+
+    def __init__(self, noise):
+        Pending.__init__(self)
+        self.noise = noise
+
+
 @register('libgazebo_ros_camera.so', 'libgazebo_ros_openni_kinect.so',
           'libgazebo_ros_depth_camera.so')
-class CameraPlugin(Plugin):
+class CameraPlugin(Sensor):
     """The sim camera (thesis 4.1, table 4.1): image_raw, camera_info, points, depth.
 
     See the module doc. ``self.camera`` is the ROS-free ``SimCamera``."""
 
     DEFAULT_HFOV = math.radians(60.0)
+    DEFAULT_RATE = 0.0
+    DEFAULT_TOPIC = 'image_raw'
+    #: images are big: a short queue (a slow subscriber loses the oldest frames)
+    QUEUE_SIZE = 10
+    #: Gazebo's camera <noise> (pixel values 0..1); none by default
+    ERRORS = {'': dict(dims=1, sdf=(('camera', 'noise'), ('noise',)))}
     PARAMS = CAMERA_PARAMS + [RATE_ROW]
 
+    @classmethod
+    def base_rows(cls):
+        # the camera's topics are its own rows (imageTopicName ...), not topicName
+        return [r for r in super(CameraPlugin, cls).base_rows() if r.name != 'topicName']
+
     def __init__(self, spec, model, world):
-        Plugin.__init__(self, spec, model, world)
+        Sensor.__init__(self, spec, model, world)
         self.link = spec.link
         self._lock = threading.Lock()
         self._pending_hfov = None
+        self._seed = 0
         self.frames = 0
         self.last_image = None       # last published sensor_msgs/Image (also without ROS)
         self.last_info = None
         self.last_cloud = None
-        self.force_render = False    # render without subscribers (tests, benchmarks)
-        self._pubs = {}
-        self._subs = []
+        self.last_depth = None
+        self.last_rgb = None
+        self.force_render = False    # render (depth too) without subscribers (tests, benches)
 
-    # -- parameters (declared rows, sim_world.plugins.params) -----------------------------------
-    def _read_rate(self):
-        """The slowest positive rate the plugin and its sensor give (2011: sensor 30,
-        controller 100 -> 30 Hz); 0 = every step."""
-        rates = [r for r in parse_all(self.spec, RATE_ROW, self.label, self.world.log) if r > 0]
-        return min(rates) if rates else 0.0
-
-    def load(self):
-        self.link = self.spec.link or self.model.root_link
-        if self.link not in self.model.links:
-            raise PluginError('%s: camera link %r is not a link of the model'
-                              % (self.label, self.link))
-        p = self.p = self.parse(CAMERA_PARAMS)
+    # -- parameters (declared rows; the base read the common ones) ---------------------------
+    def setup(self):
+        from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+        from std_msgs.msg import Float64
+        p = self.p
+        self.link = self.body
         w, h = p.imageSize if p.imageSize is not None else (p.width, p.height)
         if p.hfov is not None:             # 2011: degrees
             hfov = math.radians(p.hfov)
@@ -140,7 +188,6 @@ class CameraPlugin(Plugin):
             self.camera = SimCamera(w, h, hfov, p.focal_length, p.Cx, p.Cy, dist, near, far)
         except CameraModelError as e:
             raise PluginError('%s: %s' % (self.label, e))
-        self.update_rate = self._read_rate()
         self.frame_id = p.frameName or self.link
         self.encoding = IMAGE_FORMATS[p.imageFormat] if p.imageFormat else 'rgb8'
         cam_name = p.cameraName.strip('/')
@@ -149,7 +196,7 @@ class CameraPlugin(Plugin):
             if cam_name and not t.startswith('/'):
                 t = cam_name + '/' + t
             return self.resolve(t)
-        self.image_topic = topic(p.imageTopicName)
+        self.image_topic = self.topic = topic(p.imageTopicName)
         self.info_topic = topic(p.cameraInfoTopicName)
         self.points_topic = topic(p.pointCloudTopicName)
         # depth cameras (openni_kinect / depth_camera names, or any camera that names a
@@ -166,35 +213,27 @@ class CameraPlugin(Plugin):
         base = self.image_topic.rsplit('/', 1)[0]
         self.hfov_topic = base + '/set_hfov'
         self.rate_topic = base + '/set_update_rate'
-        if self.world.ros_enabled:
-            self._make_ros()
+        # the outputs, in the order a frame publishes them
+        self.output('image', Image, topic=self.image_topic)
+        self.output('camera_info', CameraInfo, topic=self.info_topic, noisy=False)
+        self.output('points', PointCloud2, topic=self.points_topic, queue_size=2)
+        if self.depth_topic:
+            self.output('depth', Image, topic=self.depth_topic, queue_size=2, noisy=False)
+            self.output('depth_info', CameraInfo, topic=self.depth_info_topic, queue_size=2,
+                        noisy=False)
+        self.subscribe(self.hfov_topic, Float64, self._on_hfov)
+        self.subscribe(self.rate_topic, Float64, self._on_rate)
+        if self.ros:
+            import rospy
+            rospy.loginfo('camera %s: %dx%d, hfov %.1f deg (f = %.2f px), %s Hz sim time, '
+                          'image %s, info %s, points %s', self.label, self.camera.intr.width,
+                          self.camera.intr.height, math.degrees(self.camera.hfov),
+                          self.camera.intr.fx, self.update_rate or 'every step',
+                          self.image_topic, self.info_topic, self.points_topic)
 
     def _is_depth_camera(self):
         name = self.spec.filename or ''
         return 'openni_kinect' in name or 'depth_camera' in name
-
-    def _make_ros(self):
-        import rospy
-        from sensor_msgs.msg import Image, CameraInfo, PointCloud2
-        from std_msgs.msg import Float64
-        self._pubs = {
-            'image': rospy.Publisher(self.image_topic, Image, queue_size=10),
-            'info': rospy.Publisher(self.info_topic, CameraInfo, queue_size=10),
-            'points': rospy.Publisher(self.points_topic, PointCloud2, queue_size=2),
-        }
-        if self.depth_topic:
-            self._pubs['depth'] = rospy.Publisher(self.depth_topic, Image, queue_size=2)
-            self._pubs['depth_info'] = rospy.Publisher(self.depth_info_topic, CameraInfo,
-                                                       queue_size=2)
-        for pub in self._pubs.values():     # no GIL yield per frame (sim_world.fastpub)
-            fastpub.no_yield(pub)
-        self._subs = [rospy.Subscriber(self.hfov_topic, Float64, self._on_hfov, queue_size=10),
-                      rospy.Subscriber(self.rate_topic, Float64, self._on_rate, queue_size=10)]
-        rospy.loginfo('camera %s: %dx%d, hfov %.1f deg (f = %.2f px), %s Hz sim time, '
-                      'image %s, info %s, points %s', self.label, self.camera.intr.width,
-                      self.camera.intr.height, math.degrees(self.camera.hfov),
-                      self.camera.intr.fx, self.update_rate or 'every step',
-                      self.image_topic, self.info_topic, self.points_topic)
 
     def _error(self, text):
         self.world.log.error('%s', text)
@@ -244,7 +283,7 @@ class CameraPlugin(Plugin):
             except CameraModelError as e:
                 self._error('%s: set_hfov ignored: %s' % (self.label, e))
 
-    # -- frames ------------------------------------------------------------------------------
+    # -- who wants what ------------------------------------------------------------------------
     def will_draw(self):
         """A subscriber needs frames (``wanted``), or a plugin of this same world subscribes
         to the image (the phone's display showing its camera) and its connection, which
@@ -252,94 +291,117 @@ class CameraPlugin(Plugin):
         step all the same, not inside the first slice of a scenario's timeline."""
         if self.wanted()[0]:
             return True
-        if not self._pubs:
+        if self.outputs['image'].ros is None:
             return False
-        from sim_world.fastpub import subscribed_here
-        return any(subscribed_here(t) for t in (self.image_topic, self.points_topic,
-                                                self.depth_topic) if t)
+        return any(transport.subscribed_here(t) for t in (self.image_topic, self.points_topic,
+                                                            self.depth_topic) if t)
 
     def _subscribed(self, *keys):
-        return any(k in self._pubs and self._pubs[k].get_num_connections() > 0 for k in keys)
+        outs = self.outputs
+        return any(k in outs and outs[k].ros is not None and
+                   outs[k].ros.get_num_connections() > 0 for k in keys)
+
+    def subscribed(self):
+        return self.force_render or Sensor.subscribed(self)
 
     def wanted(self):
         """(a frame wanted, depth wanted): does a subscriber need a rendered frame: the image,
         the points or (depth cameras) the depth image. camera_info alone is no reason to
-        render (:meth:`info_wanted`): it does not depend on the pixels."""
-        if not self._pubs:
+        render (:meth:`info_wanted`): it does not depend on the pixels. Without ROS: a
+        frame, and depth with ``force_render``."""
+        if self.outputs['image'].ros is None:
             return True, self.force_render
         depth = self._subscribed('points', 'depth')
-        return self._subscribed('image') or depth or self.force_render, depth
+        return (self._subscribed('image') or depth or self.force or self.force_render,
+                depth)
 
     def info_wanted(self):
         """(camera_info wanted, depth camera_info wanted) by subscribers (without ROS: the
         camera_info, kept in ``last_info``)."""
-        if not self._pubs:
+        if self.outputs['image'].ros is None:
             return True, False
-        return self._subscribed('info'), self._subscribed('depth_info')
+        return self._subscribed('camera_info'), self._subscribed('depth_info')
 
-    def update(self, sim_time):
+    # -- the measurement: a frame of the link's view --------------------------------------------
+    def tick(self, sim_time, dt):
         self._apply_pending(sim_time)
+        if not self.errors[''].identity:       # one seed per tick, listened to or not
+            self._seed = int(self.rng.integers(1 << 62))
+
+    def measure(self, state, dt):
+        """The frame of this tick: rendered here, or in the renderer's worker thread (a
+        ``Pending`` the frame resolves); a Frame without pixels when only the camera_info
+        is wanted; None under a ``drop`` fault (nothing to publish, nothing drawn)."""
+        if self.fault == 'drop':
+            return None
         want, want_depth = self.wanted()
         if not want:
             # only the camera_info (a recording of every non-image topic, an image_proc
             # waiting for its image): at the camera's rate, without a frame drawn, so a
             # lockstep slice has no frame in flight to wait for
-            self._publish_info()
-            return
-        pose = self.world.link_pose(self.model.name, self.link)
-        stamp = self.world.ros_now() if self._pubs else None
+            return Frame()
+        ticket = _Ticket(FieldNoise(self.errors[''], self._seed))
         renderer = self.world.renderer
         if self.world.parallel_render:
-            # rendered and published by the renderer's worker thread while the world steps
-            # on; the frame shows the scene of this tick, stamped with this tick's time
-            self.camera.submit(renderer, pose,
-                               lambda rgb, depth: self._deliver(rgb, depth, stamp, want_depth),
+            # rendered by the renderer's worker thread while the world steps on; the frame
+            # shows the scene of this tick, published with this tick's stamp
+            self.camera.submit(renderer, state.body_pose,
+                               lambda rgb, depth: self._deliver(rgb, depth, ticket,
+                                                                want_depth),
                                depth=want_depth)
-            return
-        rgb, depth = self.camera.render(renderer, pose, depth=want_depth)
-        self._deliver(rgb, depth, stamp, want_depth)
+            return ticket
+        rgb, depth = self.camera.render(renderer, state.body_pose, depth=want_depth)
+        self._deliver(rgb, depth, ticket, want_depth)
+        return ticket
 
-    def _publish_info(self):
-        """A tick without a frame: the camera_info (and the depth camera's) alone."""
-        info, depth_info = self.info_wanted()
-        if not (info or depth_info):
-            return
-        stamp = self.world.ros_now() if self._pubs else None
-        msg = self.last_info = self.camera.camera_info(stamp, self.frame_id)
-        if info and self._pubs:
-            self._pubs['info'].publish(msg)
-        if depth_info:
-            self._pubs['depth_info'].publish(msg)
-
-    def _deliver(self, rgb, depth, stamp, want_depth):
-        """The messages of one rendered frame, published."""
-        img = self.camera.image_msg(rgb, stamp, self.frame_id, self.encoding)
-        info = self.camera.camera_info(stamp, self.frame_id)
-        cloud = depth_img = None
-        pubs = self._pubs
-        if want_depth:
-            if not pubs or pubs['points'].get_num_connections() > 0:
-                cloud = self.camera.cloud_msg(rgb, depth, stamp, self.frame_id, self.cutoff)
-            if self._subscribed('depth'):
-                depth_img = self.camera.depth_msg(depth, stamp, self.frame_id)
+    def _deliver(self, rgb, depth, ticket, want_depth):
+        """A rendered frame (in whichever thread rendered it): its tick's noise, then the
+        base publishes it."""
+        rgb = ticket.noise.apply_uint8(rgb)
         self.frames += 1
-        self.last_image, self.last_info, self.last_cloud = img, info, cloud
-        self.last_depth = depth_img
         self.last_rgb = rgb
-        if pubs:
-            pubs['image'].publish(img)
-            pubs['info'].publish(info)
-            if cloud is not None:
-                pubs['points'].publish(cloud)
-            if depth_img is not None:
-                pubs['depth'].publish(depth_img)
-            if depth_img is not None or self._subscribed('depth_info'):
-                pubs['depth_info'].publish(info)
+        ticket.resolve(Frame(rgb, depth if want_depth else None))
+
+    def messages(self, frame, stamp):
+        """The messages of one tick, built when they pass the gate: image, camera_info,
+        points, depth, depth camera_info (those of a frame without pixels: the infos)."""
+        cam, fid = self.camera, self.frame_id
+        info = []
+
+        def camera_info():
+            if not info:
+                info.append(cam.camera_info(stamp, fid))
+                self.last_info = info[0]
+            return info[0]
+        if frame.rgb is None:
+            want_info, want_depth_info = self.info_wanted()
+            out = [('camera_info', camera_info)] if want_info else []
+            if want_depth_info and self.depth_topic:
+                out.append(('depth_info', camera_info))
+            return out
+        out = [('image', lambda: self._image(frame, stamp)), ('camera_info', camera_info)]
+        if frame.depth is not None:
+            out.append(('points', lambda: self._cloud(frame, stamp)))
+            if self.depth_topic:
+                out.append(('depth', lambda: self._depth(frame, stamp)))
+        if self.depth_topic and (frame.depth is not None or self._subscribed('depth_info')):
+            out.append(('depth_info', camera_info))
+        return out
+
+    def _image(self, frame, stamp):
+        m = self.last_image = self.camera.image_msg(frame.rgb, stamp, self.frame_id,
+                                                    self.encoding)
+        return m
+
+    def _cloud(self, frame, stamp):
+        m = self.last_cloud = self.camera.cloud_msg(frame.rgb, frame.depth, stamp,
+                                                    self.frame_id, self.cutoff)
+        return m
+
+    def _depth(self, frame, stamp):
+        m = self.last_depth = self.camera.depth_msg(frame.depth, stamp, self.frame_id)
+        return m
 
     def shutdown(self):
         self.world.flush()
-        for s in self._subs:
-            s.unregister()
-        for p in self._pubs.values():
-            p.unregister()
-        self._subs, self._pubs = [], {}
+        Sensor.shutdown(self)

@@ -204,7 +204,8 @@ class Device(Plugin):
         self.timer.reset(self.world.sim_time)
         self.rng = self.world.rng(self.model.name, self.spec.name or self.spec.filename)
         self.load_more()
-        self.topic = self.resolve(p.topicName or self.DEFAULT_TOPIC or self.spec.name)
+        topic = p.topicName if 'topicName' in p else None   # (the camera names its own)
+        self.topic = self.resolve(topic or self.DEFAULT_TOPIC or self.spec.name)
         self.setup()
         if self.ros:
             import rospy
@@ -235,9 +236,10 @@ class Device(Plugin):
 
     # -- outputs and ROS wiring --------------------------------------------------------------------
     def output(self, key, msg_type, topic=None, latch=False, noisy=True, event=False,
-               on_change=False, repeat=0.0):
+               on_change=False, repeat=0.0, queue_size=None):
         """Declare an output: ``key`` 'main' is the main topic (``topicName``); others
-        publish on ``topic`` (relative names in the robot namespace; default ``key``).
+        publish on ``topic`` (relative names in the robot namespace; default ``key``);
+        ``queue_size``: the publisher's (default QUEUE_SIZE; a camera's images: fewer).
         Returns the Output (also ``self.outputs[key]``; the main one is ``self.pub``)."""
         if topic is None:
             topic = self.topic if key == 'main' else self.resolve(key)
@@ -246,8 +248,8 @@ class Device(Plugin):
         ros_pub = None
         if self.ros:
             from sim_world import fastpub       # counted for the slice handshake
-            ros_pub = fastpub.publisher(topic, msg_type, queue_size=self.QUEUE_SIZE,
-                                        latch=latch)
+            ros_pub = fastpub.publisher(topic, msg_type, latch=latch,
+                                        queue_size=queue_size or self.QUEUE_SIZE)
         out = Output(key, topic, msg_type, ros_pub, latch, noisy, event, on_change, repeat)
         self.outputs[key] = out
         self.pubs.append(out)
@@ -255,20 +257,23 @@ class Device(Plugin):
             self.pub = out
         return out
 
-    def emit(self, key, msg):
+    def emit(self, key, msg, now=None):
         """The gate every message of this device goes through (see the module doc); True
-        when it was published."""
+        when it was published. ``now``: sim time of the tick it belongs to (default the
+        world's; a frame rendered in another thread is published later)."""
         out = self.outputs[key]
         if msg is None or not (self.force or out.wanted()):
             return False
         if callable(msg):
             msg = msg()
-        if not out.changed(msg, self.world.sim_time):
+        if now is None:
+            now = self.world.sim_time
+        if not out.changed(msg, now):
             return False
         if key == 'main':
             self.last_msg = msg
         out.publish(msg)
-        out.note(msg, self.world.sim_time)
+        out.note(msg, now)
         return True
 
     def subscribe(self, rel_topic, msg_type, callback, queue_size=10):

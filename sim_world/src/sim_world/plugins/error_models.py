@@ -27,7 +27,7 @@ import numpy as np
 
 from .params import Param, ParamError
 
-__all__ = ['ErrorModel', 'error_params', 'error_model_from', 'HECTOR_FIELDS']
+__all__ = ['ErrorModel', 'FieldNoise', 'error_params', 'error_model_from', 'HECTOR_FIELDS']
 
 #: hector names (after the channel prefix) -> ErrorModel keyword
 HECTOR_FIELDS = (
@@ -126,6 +126,48 @@ class ErrorModel(object):
                             self.bias_stddev, self.quantization))
 
 
+class FieldNoise(object):
+    """One tick of a scalar ``ErrorModel`` applied to every sample of a field: a camera's
+    pixels, values 0..1 (uint8 0..255), as Gazebo's camera ``<noise>`` (amplifier noise)::
+
+        y = clip(scale x + offset + bias + drift + sigma n, 0, 1),   quantised
+
+    with one standard normal ``n`` per pixel, added to each of its channels (Gazebo draws a
+    value per pixel and adds it to every colour channel), ``sigma`` the model's
+    ``gaussian_noise`` times its ``noise_scale`` (a ``noise`` fault). The parameters are
+    those of the tick it is made at; its draws come from a generator seeded with ``seed``
+    (drawn from the sensor's generator at that tick), so a frame's noise is the same
+    whatever thread applies it and whenever. ``identity``: nothing to do (no ``<noise>``):
+    the image stays the very same array."""
+    __slots__ = ('scale', 'shift', 'sigma', 'quantization', 'seed', 'identity')
+
+    def __init__(self, model, seed=0):
+        self.identity = bool(model.identity and model.noise_scale == 1.0)
+        self.scale = float(model.scale_error[0])
+        self.shift = float(model.offset[0] + model.bias[0] + model.current_drift[0])
+        self.sigma = float(model.gaussian_noise[0] * model.noise_scale)
+        self.quantization = float(model.quantization[0])
+        self.seed = int(seed)
+
+    def apply_uint8(self, img):
+        """The noisy copy of an HxW(xC) uint8 image (values 0..255 for 0..1)."""
+        if self.identity:
+            return img
+        img = np.asarray(img)
+        y = img.astype(np.float32) * np.float32(self.scale / 255.0)
+        y += np.float32(self.shift)
+        if self.sigma > 0:
+            n = np.random.default_rng(self.seed).standard_normal(img.shape[:2], np.float32)
+            n *= np.float32(self.sigma)
+            y += n[..., None] if img.ndim == 3 else n
+        if self.quantization > 0:
+            q = np.float32(self.quantization)
+            y = np.round(y / q) * q
+        np.clip(y, 0.0, 1.0, out=y)
+        y *= np.float32(255.0)
+        return np.rint(y, out=y).astype(np.uint8)
+
+
 def _prefixed(prefix, field):
     if not prefix:
         return field
@@ -182,7 +224,10 @@ def _sdf_noise(el, dims):
                 return v
         return default
 
-    t = el.get('type', 'gaussian')
+    t = el.get('type')
+    if t is None:              # SDF 1.4's camera and ray <noise>: <type> is a child element
+        t = next((c.text.strip() for c in el if _local(c.tag) == 'type' and c.text), None)
+    t = t or 'gaussian'
     if t == 'none':
         return {}
     if t not in ('gaussian', 'gaussian_quantized'):

@@ -24,7 +24,7 @@ import numpy as np
 from ..model import _local
 
 __all__ = ['Param', 'ParamValues', 'parse_params', 'parse_all', 'convert', 'describe',
-           'ParamError', 'find_text', 'find_texts']
+           'ParamError', 'find_text', 'find_texts', 'bad_value']
 
 
 class ParamError(ValueError):
@@ -214,9 +214,12 @@ def parse_all(spec, row, label, log=None):
     return vals
 
 
-def _bad(label, row, e, text):
+def bad_value(label, row, e, text):
     """The one wording of a bad parameter."""
     return '%s: %s must be %s, got %r' % (label, row.name, e, text.strip())
+
+
+_bad = bad_value
 
 
 def parse_params(spec, rows, label, log=None):

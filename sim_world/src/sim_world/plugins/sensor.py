@@ -38,20 +38,32 @@ and owns the whole update. On every tick of its ``UpdateTimer``:
    own faults (``FAULTS_OWN`` + ``on_fault``) act in its measurement. A fault the sensor
    cannot apply (no outputs, no noise) is refused with a ValueError saying why.
 
+A measurement may arrive later, in another thread: ``measure`` returns a ``Pending``
+(the camera's frame, rendered in the renderer's worker thread while the world steps on);
+the base publishes its messages when it is resolved, through the same gate, stamped and
+timed at the tick it was measured for.
+
+Rate: ``updateRate``/``updatePeriod``/``updateOffset`` of the plugin; a plugin inside a
+``<sensor>`` element that also gives a rate (``<update_rate>``, the 2011
+``<updateRate>``) runs at the slowest positive one of the two, as Gazebo's sensor plugins
+do (the sensor updates at its rate, the plugin publishes at most at its own: the thesis's
+camera, sensor 30 Hz, controller 100 Hz, runs at 30 Hz).
+
 No sensor overrides ``update``. Actuators (force, LED, vibration, projector, speaker,
 thermal display) are ``sim_world.plugins.device.Actuator``: no error models, no faults.
 """
 import copy
 import hashlib
+import threading
 
 import numpy as np
 
 from .device import BASE_PARAMS, DEVICE_FRAME, Device, Output, SensorState, content
 from .error_models import error_model_from, error_params
-from .params import ParamError
+from .params import ParamError, bad_value, convert, find_texts
 
 __all__ = ['Sensor', 'SensorState', 'Output', 'BASE_PARAMS', 'DEVICE_FRAME', 'FAULTS',
-           'stable_seed', 'content', 'inject_fault']
+           'Pending', 'stable_seed', 'content', 'inject_fault']
 
 #: faults every sensor understands; sensors add their own through ``FAULTS_OWN`` + ``on_fault``
 FAULTS = ('none', 'drop', 'freeze', 'noise')
@@ -93,6 +105,7 @@ class Sensor(Device):
 
     def load_more(self):
         p = self.p
+        self.timer.rate = self.read_rate()
         for prefix, d in self.ERRORS.items():
             d = dict(d)
             try:
@@ -106,6 +119,26 @@ class Sensor(Device):
                     _Defaults(self.param_rows()), prefix, d.get('dims', 1), rng=self.rng,
                     defaults=d)
 
+    def read_rate(self):
+        """Hz of the timer: ``updatePeriod`` if given, else the slowest positive
+        ``updateRate`` given on the plugin and on its ``<sensor>`` element (0: every step
+        when only zeros are given), else DEFAULT_RATE. A bad value beyond the first (which
+        parse_params reported) is one error line too."""
+        p = self.p
+        if p.updatePeriod:
+            return 1.0 / p.updatePeriod
+        row = next(r for r in self.param_rows() if r.name == 'updateRate')
+        rates = [p.updateRate] if 'updateRate' in p.given else []
+        for text in find_texts(self.spec, row)[1:]:
+            try:
+                rates.append(convert(row, text))
+            except ParamError as e:
+                self.world.log.error('%s', bad_value(self.label, row, e, text))
+        if not rates:
+            return p.updateRate if p.updateRate is not None else self.DEFAULT_RATE
+        positive = [r for r in rates if r > 0]
+        return min(positive) if positive else 0.0
+
     # -- the update: owned here ------------------------------------------------------------------
     def update(self, sim_time):
         dt = self.timer.last_dt
@@ -117,17 +150,27 @@ class Sensor(Device):
         value = self.measure(self.state(sim_time), dt)
         if value is None:
             return
+        stamp = self.stamp()
+        if isinstance(value, Pending):   # arrives later (another thread): same gate
+            value.then(lambda v: self._publish(v, stamp, sim_time))
+            return
+        self._publish(value, stamp, sim_time)
+
+    def _publish(self, value, stamp, now):
+        """The messages of the tick at sim time ``now`` through the gate."""
+        if value is None:
+            return
         self.last_value = value
         if self.ALWAYS_MEASURE and not self._any_wanted():
             return                       # measured for its history; nobody to tell
-        msgs = self.messages(value, self.stamp())
+        msgs = self.messages(value, stamp)
         for key, m in (msgs.items() if isinstance(msgs, dict) else msgs):
             if callable(m):              # built only when it can pass the gate
                 if self.fault == 'drop' or not (self.force or self.outputs[key].wanted()):
                     continue
                 m = m()
             for one in (m if isinstance(m, list) else (m,)):
-                self.emit(key, one)
+                self.emit(key, one, now)
 
     def _any_wanted(self):
         return self.force or any(o.wanted() for o in self.pubs)
@@ -147,25 +190,27 @@ class Sensor(Device):
     def to_msg(self, value, stamp):
         raise NotImplementedError
 
-    def emit(self, key, msg):
+    def emit(self, key, msg, now=None):
         """The gate: faults first (drop: nothing; freeze: the messages the output published
         in its last tick before the fault, again, in order, with new stamps; nothing for
-        events), then subscribers and on-change (Device.emit)."""
+        events), then subscribers and on-change (Device.emit). ``now``: the sim time of the
+        tick the message belongs to (default: the world's)."""
         out = self.outputs[key]
         if msg is None or self.fault == 'drop':
             return False
+        if now is None:
+            now = self.world.sim_time
         if self.fault == 'freeze':
             if out.event:
                 return False
             if out.held:
-                now = self.world.sim_time
                 t, i = out.held_i
                 i = i if t == now else 0
                 if i >= len(out.held):
                     return False          # more messages this tick than the frozen tick had
                 out.held_i = (now, i + 1)
                 msg = _restamped(out.held[i], msg() if callable(msg) else msg)
-        sent = Device.emit(self, key, msg)
+        sent = Device.emit(self, key, msg, now)
         if sent and self.fault == 'freeze' and not out.held:
             out.held = out.batch          # nothing before the fault: the first tick after
         return sent
@@ -214,6 +259,33 @@ class Sensor(Device):
         Device.reset(self)
         for e in self.errors.values():
             e.reset()
+
+
+class Pending(object):
+    """A measurement that arrives later, from another thread (``resolve(value)``); the
+    base's ``then(fn)`` runs ``fn(value)`` once it is there (at once if it already is), in
+    the thread that resolves it, or in the caller's."""
+    __slots__ = ('_lock', '_fn', '_value', '_done')
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._fn = None
+        self._value = None
+        self._done = False
+
+    def resolve(self, value):
+        with self._lock:
+            self._value, self._done = value, True
+            fn = self._fn
+        if fn is not None:
+            fn(value)
+
+    def then(self, fn):
+        with self._lock:
+            self._fn = fn
+            done, value = self._done, self._value
+        if done:
+            fn(value)
 
 
 def inject_fault(plugins, fault, value=0.0):

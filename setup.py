@@ -4,7 +4,8 @@ from catkin_pkg.python_setup import generate_distutils_setup
 
 # One catkin package, one importable library per stack (<stack>/src/<package>/).
 STACKS = {
-    'sim_world': ['sim_world', 'sim_world.physics', 'sim_world.render', 'sim_world.plugins'],
+    'sim_world': ['sim_world', 'sim_world.physics', 'sim_world.render', 'sim_world.plugins',
+                  'sim_world.transport'],
     'simvid': ['simvid'],
     'textvid': ['textvid'],
     'simsensors': ['simsensors'],

@@ -1,4 +1,4 @@
-"""sim_world.fastpub under a real roscore: a publisher (as the camera's image_raw and sim_world's
+"""sim_world.transport (fastpub before issue 45) under a real roscore: a publisher (as the camera's image_raw and sim_world's
 /clock use it) serves a remote rospy subscriber every message intact, hands a subscriber in
 its own node the very message objects (no serialization, no socket), respects that
 subscriber's queue, and drops the local connection once the subscriber unregisters (so the
@@ -20,20 +20,20 @@ PUBLISHER = textwrap.dedent('''
     sys.path.insert(0, %(src)r)
     import rospy
     from sensor_msgs.msg import Image
-    from sim_world import fastpub
+    from sim_world import transport
     rospy.init_node('fastpub_probe', disable_signals=True)
-    pub = fastpub.publisher('/probe', Image, queue_size=50)
+    pub = transport.publisher('/probe', Image, queue_size=50)
     sent, got, got_slow = [], [], []
     sub = rospy.Subscriber('/probe', Image, lambda m: got.append(m), queue_size=100)
     # a slow local subscriber with queue 1 on a second topic: sees only the newest
-    pub2 = fastpub.publisher('/probe_slow', Image, queue_size=10)
+    pub2 = transport.publisher('/probe_slow', Image, queue_size=10)
     gate = threading.Event()
     def slow(m):
         gate.wait(10)
         got_slow.append(int(m.data[0]))
     sub2 = rospy.Subscriber('/probe_slow', Image, slow, queue_size=1)
     # inline_local (sim_world's /clock): the callback runs in the publishing thread
-    pub3 = fastpub.publisher('/probe_inline', Image, queue_size=10, inline_local=True)
+    pub3 = transport.publisher('/probe_inline', Image, queue_size=10, inline_local=True)
     inline_threads = []
     sub3 = rospy.Subscriber('/probe_inline', Image,
                             lambda m: inline_threads.append(threading.current_thread().name))
@@ -42,15 +42,15 @@ PUBLISHER = textwrap.dedent('''
     from std_msgs.msg import String
     me = rospy.get_caller_id()
     clock = [0.0]
-    fastpub.set_sim_clock(lambda: clock[0])
-    fastpub.take_times(me)
-    pub4 = fastpub.publisher('/probe_mixed', String, queue_size=10)
+    transport.set_sim_clock(lambda: clock[0])
+    transport.take_times(me)
+    pub4 = transport.publisher('/probe_mixed', String, queue_size=10)
     mixed_inline, mixed_thread = [], []
     def cb_inline(m):
         mixed_inline.append((m.data, threading.current_thread().name))
     def cb_thread(m):
         mixed_thread.append((m.data, threading.current_thread().name))
-    fastpub.deliver_inline(cb_inline)
+    transport.deliver_inline(cb_inline)
     sub4a = rospy.Subscriber('/probe_mixed', String, cb_inline)
     sub4b = rospy.Subscriber('/probe_mixed', String, cb_thread)
     deadline = time.time() + 30
@@ -62,7 +62,7 @@ PUBLISHER = textwrap.dedent('''
         clock[0] = 0.5 * i
         pub4.publish(String('m%%d' %% i))
     mixed_inline_now = len(mixed_inline)
-    mixed_times = fastpub.take_times(me).get('/probe_mixed')
+    mixed_times = transport.take_times(me).get('/probe_mixed')
     conns_before = pub.get_num_connections()
     for i in range(40):
         m = Image(height=1, width=4, encoding='mono8', step=4, data=bytes([i, 1, 2, 3]))
@@ -75,7 +75,7 @@ PUBLISHER = textwrap.dedent('''
     deadline = time.time() + 10
     while len(got) < 40 and time.time() < deadline:
         time.sleep(0.05)
-    counts = fastpub.handed_to(me)
+    counts = transport.handed_to(me)
     gate.set()
     time.sleep(0.5)
     same = sum(1 for a, b in zip(sent, got) if a is b)
@@ -90,7 +90,7 @@ PUBLISHER = textwrap.dedent('''
                           inline=inline_threads, me=threading.current_thread().name,
                           counts=counts, mixed_inline=mixed_inline,
                           mixed_inline_now=mixed_inline_now, mixed_thread=mixed_thread,
-                          mixed_times=mixed_times, other=fastpub.handed_to('/someone_else'))),
+                          mixed_times=mixed_times, other=transport.handed_to('/someone_else'))),
           flush=True)
     time.sleep(2.0)
 ''')
@@ -184,7 +184,7 @@ LOCAL_ONLY = textwrap.dedent('''
     import rospy
     import rospy.topics
     from sensor_msgs.msg import Imu
-    from sim_world import fastpub
+    from sim_world import transport
     serialized = []
     real = rospy.topics.serialize_message
     def counting(b, seq, msg):
@@ -192,7 +192,7 @@ LOCAL_ONLY = textwrap.dedent('''
         return real(b, seq, msg)
     rospy.topics.serialize_message = counting
     rospy.init_node('fastpub_local_only', disable_signals=True)
-    pub = fastpub.publisher('/local_only', Imu, queue_size=50)
+    pub = transport.publisher('/local_only', Imu, queue_size=50)
     got = []
     sub = rospy.Subscriber('/local_only', Imu, lambda m: got.append(m), queue_size=100)
     deadline = time.time() + 30
@@ -211,7 +211,7 @@ LOCAL_ONLY = textwrap.dedent('''
                           same=sum(1 for a, b in zip(sent, got) if a is b),
                           seq=[m.header.seq for m in got],
                           frames=[m.header.frame_id for m in got],
-                          counts=fastpub.handed_to(rospy.get_caller_id()))), flush=True)
+                          counts=transport.handed_to(rospy.get_caller_id()))), flush=True)
 ''')
 
 

@@ -10,7 +10,7 @@ abuse, and a subscriber that connects during the abuse gets its first message wi
 Found: rospy reads a connection's header in its accept loop (TCPServer.run ->
 TCPROSServer._tcp_server_callback -> read_ros_handshake_header, blocking, no timeout), so
 one client that connects and says nothing stalls every later subscriber and every service
-call of the node. sim_world.tcpros_guard reads each header on its own thread, with a
+call of the node. sim_world.transport.tcpros_guard reads each header on its own thread, with a
 timeout and a size bound."""
 import json
 import os

@@ -268,7 +268,7 @@ def test_an_apps_answer_reaches_the_world_at_the_slice_boundary(tmp_path, mode):
     near. The battery, which draws for the display while it is on, measures at that same
     tick: it must not see the app's answer there (the app answered after the tick; on a
     quiet machine it used to arrive while the world was still in it), only at the next
-    measurement (sim_world.stepgate holds inputs while the world steps)."""
+    measurement (sim_world.transport's gate holds inputs while the world steps)."""
     import rosbag
     bag = tmp_path / 'incall.bag'
     rc, out = run(os.path.join(EX, 'incall_proximity.yaml'), mode, '--record', bag)

@@ -407,7 +407,7 @@ def test_a_world_node_that_ran_after_the_queues_were_read_holds_the_apps(spawn):
         assert w2._others_busy() == [('the world node', 'handling an input')]
 
 
-@pytest.mark.skipif(procs._FUTEX is None, reason='futex syscall number unknown here')
+@pytest.mark.skipif(procs.FUTEX_SYSCALL is None, reason='futex syscall number unknown here')
 def test_receivers_busy_names_a_receive_thread_not_waiting_for_bytes():
     """A rospy receive thread (named after its topic) that has taken bytes off its socket
     and waits for the GIL or a lock, or runs, holds a message: the runner has not got it

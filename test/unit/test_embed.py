@@ -6,6 +6,7 @@ import pytest
 
 pytest.importorskip('roslaunch')
 
+from sim_world import transport  # noqa: E402
 from testing_instance import embed  # noqa: E402
 from testing_instance.results import RunError  # noqa: E402
 
@@ -82,7 +83,7 @@ def test_a_local_service_is_called_as_a_proxy_would_call_it():
         if req.data:
             return True, 'on'                     # a tuple, as rospy handlers may answer
         raise ValueError('refused')
-    svc = embed.LocalService(_Impl(handler))
+    svc = transport.LocalService(_Impl(handler))
     res = svc(True)
     assert (res.success, res.message) == (True, 'on')
     assert svc(data=True).message == 'on'        # keyword fields

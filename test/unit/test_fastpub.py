@@ -1,4 +1,5 @@
-"""sim_world.fastpub without a roscore: the queued connection that does not yield the GIL per
+"""sim_world.transport.connections (fastpub before issue 45) without a roscore: the queued
+connection that does not yield the GIL per
 message (same queue, drop-oldest and error behaviour as rospy's QueuedConnection), and the
 renderer's lazy pose application that the camera path relies on."""
 import math
@@ -10,7 +11,7 @@ import pytest
 
 pytest.importorskip('rospy')
 
-from sim_world import fastpub  # noqa: E402
+from sim_world.transport import connections  # noqa: E402
 from sim_world.model import Geometry, Link, Material, Model, Visual  # noqa: E402
 from sim_world.render import CameraView, Renderer  # noqa: E402
 from sim_world.transforms import Pose, quat_from_rpy  # noqa: E402
@@ -45,7 +46,7 @@ def _stop(c, t):
 
 def test_no_yield_connection_yields_only_when_the_writer_falls_behind(monkeypatch):
     t = FakeTransport()
-    c = fastpub.NoYieldConnection(t, 10)
+    c = connections.NoYieldConnection(t, 10)
     try:
         c.write_data(b'first')                  # taken by the writer thread, which blocks
         deadline = time.time() + 5
@@ -77,7 +78,7 @@ def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
     """A subscriber that asks (the testing instance, through step_world) gets the sim time
     of each headerless message handed to it, in order, less those the full queue dropped."""
     now = [1.0]
-    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
+    monkeypatch.setattr(connections, '_sim_clock', [lambda: now[0]])
 
     class TM(object):                          # rospy's topic manager, one publication
         def __init__(self, conn):
@@ -89,7 +90,7 @@ def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
         def get_publisher_impl(self, topic):
             return self.impl
     t = FakeTransport()                        # stuck: nothing leaves the queue
-    c = fastpub.NoYieldConnection(t, 3)
+    c = connections.NoYieldConnection(t, 3)
     c.unstamped, c.times = True, []
     tm = TM(c)
     try:
@@ -101,10 +102,10 @@ def test_unstamped_messages_keep_the_sim_time_they_went_out_at(monkeypatch):
             now[0] = 1.1 + 0.1 * i
             c.write_data(b'm%d' % i)
         assert c.dropped == 2
-        got = fastpub.take_times('/someone', tm)['/led']
+        got = connections.take_times('/someone', tm)['/led']
         assert [round(x, 3) for x in got] == [1.0, 1.3, 1.4, 1.5]
-        assert fastpub.take_times('/someone', tm) == {}       # taken: forgotten
-        assert fastpub.take_times('/other', tm) == {}         # not its connection
+        assert connections.take_times('/someone', tm) == {}       # taken: forgotten
+        assert connections.take_times('/other', tm) == {}         # not its connection
     finally:
         _stop(c, t)
 
@@ -129,9 +130,9 @@ def test_messages_with_a_zero_stamp_are_timed_as_headerless_ones(monkeypatch):
     the connection notes its sim time, the stamped ones' not, and a drop keeps the two
     lists in step."""
     now = [2.0]
-    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
+    monkeypatch.setattr(connections, '_sim_clock', [lambda: now[0]])
     t = FakeTransport()
-    c = fastpub.NoYieldConnection(t, 3)
+    c = connections.NoYieldConnection(t, 3)
     c.times = []                               # a subscriber that asked; unstamped is False
     tm = OneTopic(c, '/img')
     try:
@@ -141,22 +142,22 @@ def test_messages_with_a_zero_stamp_are_timed_as_headerless_ones(monkeypatch):
             time.sleep(0.001)
         for i, zero in enumerate([True, False, True, False, True]):
             now[0] = 2.1 + 0.1 * i
-            fastpub._zero.on = zero
+            connections._zero.on = zero
             try:
                 c.write_data(b'm%d' % i)
             finally:
-                fastpub._zero.on = False
+                connections._zero.on = False
         assert c.dropped == 2                  # m0 (zero, 2.1) and m1 (stamped)
-        got = fastpub.take_times('/someone', tm)['/img']
+        got = connections.take_times('/someone', tm)['/img']
         assert [round(x, 3) for x in got] == [2.3, 2.5]
-        assert fastpub.take_times('/someone', tm) == {}
+        assert connections.take_times('/someone', tm) == {}
     finally:
         _stop(c, t)
 
 
 def test_no_yield_says_which_published_message_has_a_zero_stamp():
     """The publisher tells its connections, for each message (the latched one sent to a new
-    subscriber too), whether its stamp is zero (fastpub.zero_stamped)."""
+    subscriber too), whether its stamp is zero (connections.zero_stamped)."""
     from sensor_msgs.msg import Range
     seen, made = [], []
 
@@ -169,7 +170,7 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
         publock = threading.RLock()
 
         def add_connection(self, c):
-            seen.append(('connect', fastpub._zero.on))
+            seen.append(('connect', connections._zero.on))
             made.append(c)
             return True
 
@@ -178,9 +179,9 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
         impl = Impl()
 
         def publish(self, *args, **kwds):
-            seen.append(('publish', fastpub._zero.on, args[0].header.stamp.secs))
+            seen.append(('publish', connections._zero.on, args[0].header.stamp.secs))
             Pub.impl.latch = args[0]
-    p = fastpub.no_yield(Pub())
+    p = connections.no_yield(Pub())
     stamped = Range()
     stamped.header.stamp.secs = 3
     p.publish(Range())
@@ -195,15 +196,15 @@ def test_no_yield_says_which_published_message_has_a_zero_stamp():
         _stop(c, c._connection)
     assert seen == [('publish', True, 0), ('publish', False, 3), ('publish', True, 0),
                     ('connect', True), ('publish', False, 4), ('connect', False)]
-    assert not fastpub._zero.on
-    assert fastpub.zero_stamped(Range()) and not fastpub.zero_stamped(stamped)
+    assert not connections._zero.on
+    assert connections.zero_stamped(Range()) and not connections.zero_stamped(stamped)
     from std_msgs.msg import String
-    assert not fastpub.zero_stamped(String())             # headerless: its type says so
+    assert not connections.zero_stamped(String())             # headerless: its type says so
 
 
 def test_writer_error_is_raised_on_the_next_write():
     t = FakeTransport()
-    c = fastpub.NoYieldConnection(t, 2)
+    c = connections.NoYieldConnection(t, 2)
     try:
         c._error = IOError('broken pipe')
         with pytest.raises(IOError, match='broken pipe'):
@@ -218,7 +219,7 @@ def test_no_yield_leaves_unqueued_publishers_alone():
         class impl(object):
             queue_size = None
             connections = []
-    assert fastpub.no_yield(P) is P
+    assert connections.no_yield(P) is P
     assert not hasattr(P.impl, '_no_yield')
 
 
@@ -295,20 +296,20 @@ def test_wait_sent_returns_once_the_writer_wrote_every_message():
     wait_sent blocks while the writer thread still holds some, and gives up when no write
     happens for ``stall`` s (a subscriber that stopped reading)."""
     t = FakeTransport()
-    c = fastpub.NoYieldConnection(t, 100)
+    c = connections.NoYieldConnection(t, 100)
     try:
         for i in range(3):
             c.write_data(b'm%d' % i)
-        assert c.unsent() == 3 and fastpub.unsent() >= 3
+        assert c.unsent() == 3 and connections.unsent() >= 3
         t0 = time.monotonic()
-        assert fastpub.wait_sent(stall=0.3) is False          # the writer is stuck
+        assert connections.wait_sent(stall=0.3) is False          # the writer is stuck
         assert 0.25 <= time.monotonic() - t0 < 2.0
         t0 = time.monotonic()                                 # ... and not waited for again
-        assert fastpub.wait_sent(stall=0.3) is False
+        assert connections.wait_sent(stall=0.3) is False
         assert time.monotonic() - t0 < 0.1
         threading.Timer(0.2, t.release.set).start()
         t0 = time.monotonic()
-        assert fastpub.wait_sent(stall=5.0) is True
+        assert connections.wait_sent(stall=5.0) is True
         assert time.monotonic() - t0 < 3.0
         assert t.got == [b'm0', b'm1', b'm2'] and c.unsent() == 0 and c.sent == 3
     finally:
@@ -367,20 +368,20 @@ def test_a_message_the_socket_takes_whole_is_sent_without_the_writer_thread():
     import socket
     a, b = socket.socketpair()
     t = SocketTransport(a)
-    c = fastpub.NoYieldConnection(t, 10)
+    c = connections.NoYieldConnection(t, 10)
     try:
         msgs = [b'%04d' % i * 10 for i in range(50)]
         for m in msgs:
             assert c.write_data(m) is True
-        assert c.sent == 50 and c.unsent() == 0 and fastpub.wait_sent(stall=1.0) is True
+        assert c.sent == 50 and c.unsent() == 0 and connections.wait_sent(stall=1.0) is True
         assert t.writer_calls == 0 and t.stat_num_msg == 50 and t.stat_bytes == 2000
         assert _read(b, 2000) == b''.join(msgs)
-        fastpub._DIRECT[0] = False                    # the writer thread's way, to compare
+        connections._DIRECT[0] = False                    # the writer thread's way, to compare
         try:
             c.write_data(b'queued')
-            assert fastpub.wait_sent(stall=1.0) is True
+            assert connections.wait_sent(stall=1.0) is True
         finally:
-            fastpub._DIRECT[0] = True
+            connections._DIRECT[0] = True
         assert t.writer_calls == 1 and _read(b, 6) == b'queued'
     finally:
         _close(c, t)
@@ -399,7 +400,7 @@ def test_a_message_begun_directly_is_finished_by_the_writer_and_never_dropped():
     b.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     t = SocketTransport(a)
     t.gate.clear()                               # the writer thread cannot write yet
-    c = fastpub.NoYieldConnection(t, 2)
+    c = connections.NoYieldConnection(t, 2)
     try:
         big = bytes(range(256)) * 4096           # 1 MiB: more than the socket takes
         c.write_data(big)
@@ -414,7 +415,7 @@ def test_a_message_begun_directly_is_finished_by_the_writer_and_never_dropped():
         t.gate.set()
         kept = 5 - c.dropped
         got = _read(b, len(big) + 6 * kept)
-        assert fastpub.wait_sent(stall=2.0) is True and c.unsent() == 0
+        assert connections.wait_sent(stall=2.0) is True and c.unsent() == 0
         assert 0 < t.lengths[0] < len(big)       # the writer sent only the rest of it
         assert got[:len(big)] == big             # whole, then whole small ones in order,
         smalls = [got[len(big) + 6 * i:len(big) + 6 * (i + 1)] for i in range(kept)]
@@ -439,11 +440,11 @@ def test_local_delivery_looks_its_subscriber_up_once_per_subscription(monkeypatc
         lookups.append(topic)
         sub = subs[topic]
         return None if sub is None or sub.closed else sub
-    monkeypatch.setattr(fastpub, '_subscriber_impl', lookup)
+    monkeypatch.setattr(connections, '_subscriber_impl', lookup)
     got = []
     first = SimpleNamespace(closed=False, queue_size=0, callbacks=[('cb', None)],
                             _invoke_callback=lambda msg, cb, args: got.append(('first', msg)))
-    d = fastpub._LocalDelivery('/t', inline=True)
+    d = connections._LocalDelivery('/t', inline=True)
     try:
         d.put('m0')                               # nobody subscribed: dropped, looked up
         subs['/t'] = first
@@ -471,41 +472,41 @@ def test_hold_keeps_messages_for_others_until_the_next_release(monkeypatch):
     release sends them; release(stop) ends the hold; release(drop) forgets them."""
     import socket
     now = [2.0]
-    monkeypatch.setattr(fastpub, '_sim_clock', [lambda: now[0]])
-    monkeypatch.setattr(fastpub, '_own_id', lambda: '/me')
+    monkeypatch.setattr(connections, '_sim_clock', [lambda: now[0]])
+    monkeypatch.setattr(connections, '_own_id', lambda: '/me')
     pairs = [socket.socketpair() for _ in range(3)]
     ts = [SocketTransport(a) for a, _b in pairs]
     ts[1].endpoint_id = '/scenario_runner'
     ts[2].endpoint_id = '/me'
-    cs = [fastpub.NoYieldConnection(t, 10) for t in ts]
+    cs = [connections.NoYieldConnection(t, 10) for t in ts]
     cs[0].unstamped, cs[0].times = True, []
     try:
-        fastpub.hold(keep=('/scenario_runner',))
-        assert fastpub.holding()
+        connections.hold(keep=('/scenario_runner',))
+        assert connections.holding()
         for i in range(3):
             now[0] = 2.0 + 0.01 * i
             for c in cs:
                 assert c.write_data(b'm%d' % i) is True
         assert cs[0].handed == 0 and cs[0].unsent() == 0 and cs[0].times == []
-        assert fastpub.wait_sent(stall=1.0) is True          # held ones are not waited for
+        assert connections.wait_sent(stall=1.0) is True          # held ones are not waited for
         for c, (_a, b) in zip(cs[1:], pairs[1:]):             # kept: at once
             assert c.handed == 3 and _read(b, 6) == b'm0m1m2'
         pairs[0][1].setblocking(False)
         with pytest.raises(BlockingIOError):
             pairs[0][1].recv(10)
         now[0] = 3.0
-        fastpub.release()                                     # the next step begins
-        assert fastpub.holding()
+        connections.release()                                     # the next step begins
+        assert connections.holding()
         assert cs[0].handed == 3 and _read(pairs[0][1], 6) == b'm0m1m2'
         assert [round(x, 3) for x in cs[0].times] == [2.0, 2.01, 2.02]
         cs[0].write_data(b'x')                                # held again ...
-        fastpub.release(drop=True)                            # ... and forgotten
-        fastpub.release(stop=True)
-        assert not fastpub.holding() and cs[0].handed == 3
+        connections.release(drop=True)                            # ... and forgotten
+        connections.release(stop=True)
+        assert not connections.holding() and cs[0].handed == 3
         cs[0].write_data(b'y')                                # no hold: sent at once
         assert cs[0].handed == 4 and _read(pairs[0][1], 1) == b'y'
     finally:
-        fastpub.release(stop=True)
+        connections.release(stop=True)
         for c, t in zip(cs, ts):
             _close(c, t)
         for a, b in pairs:
@@ -523,8 +524,8 @@ def test_subscribed_here_sees_a_subscriber_of_this_node_before_it_is_connected(m
              '/gone': SimpleNamespace(closed=True, connections=[])}
     manager = SimpleNamespace(get_subscriber_impl=lambda topic: impls.get(topic))
     monkeypatch.setattr(registration, 'get_topic_manager', lambda: manager)
-    assert fastpub.subscribed_here('/mobile_device/image_raw')
-    assert not fastpub.subscribed_here('/gone')
-    assert not fastpub.subscribed_here('/mobile_device/points')
+    assert connections.subscribed_here('/mobile_device/image_raw')
+    assert not connections.subscribed_here('/gone')
+    assert not connections.subscribed_here('/mobile_device/points')
     monkeypatch.setattr(registration, 'get_topic_manager', lambda: None)    # no node yet
-    assert not fastpub.subscribed_here('/mobile_device/image_raw')
+    assert not connections.subscribed_here('/mobile_device/image_raw')

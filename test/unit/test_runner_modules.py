@@ -169,8 +169,8 @@ def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(m
 def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(embedded):
     """An embedded world is this process: before a step that follows the actions' messages
     the runner waits until its receive threads have handled what was written to their
-    sockets (stepgate.settle), so the world takes the input at this slice boundary. A world
-    node's step request waits for its own receive threads (stepgate.close): the runner
+    sockets (transport.settle), so the world takes the input at this slice boundary. A world
+    node's step request waits for its own receive threads (transport.close_gate): the runner
     does not look. Without an action since the last step, no look."""
     import time
     from types import SimpleNamespace

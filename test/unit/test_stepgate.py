@@ -1,4 +1,5 @@
-"""sim_world.stepgate without a roscore: while the gate is closed (the world steps a
+"""sim_world.transport.gate (stepgate before issue 45) without a roscore: while the gate is
+closed (the world steps a
 pipelined slice) a message received from a socket and a service request wait in the thread
 that got them, and go through, in order, once it is open again."""
 import contextlib
@@ -12,7 +13,7 @@ pytest.importorskip('rospy')
 from rospy.impl.tcpros_service import ServiceImpl  # noqa: E402
 from rospy.topics import _SubscriberImpl  # noqa: E402
 
-from sim_world import stepgate  # noqa: E402
+from sim_world.transport import gate  # noqa: E402
 
 
 class FakeSub(object):
@@ -41,20 +42,20 @@ def _installed():
     world's API does it as it starts). Every test reads the wrapped methods, so each
     installs it first: a test that relied on an earlier one in the same process failed when
     pytest-xdist gave it a process of its own (found by bench/flaky)."""
-    stepgate.install()
+    gate.install()
 
 
 @contextlib.contextmanager
 def _step_requested_over_a_socket():
     """What a world node does when its step request arrives: the request is an input this
     thread handles (past the gate), and the step closes the gate; inside, the step runs."""
-    stepgate._enter()
+    gate._enter()
     try:
-        stepgate.close()
+        gate.close()
         yield
     finally:
-        stepgate.reopen()
-        stepgate._leave()
+        gate.reopen()
+        gate._leave()
 
 
 def _later(fn, *args):
@@ -65,8 +66,8 @@ def _later(fn, *args):
 
 def test_inputs_wait_while_the_gate_is_closed(monkeypatch):
     got = []
-    stepgate.install()
-    stepgate.install()                                   # once per process
+    gate.install()
+    gate.install()                                   # once per process
     monkeypatch.setattr('rospy.impl.tcpros_service.convert_return_to_response',
                         lambda r, cls: r)
 
@@ -75,16 +76,16 @@ def test_inputs_wait_while_the_gate_is_closed(monkeypatch):
 
         def send_message(self, resp, seq):
             got.append('answered')
-    stepgate.close()
+    gate.close()
     try:
-        assert stepgate.is_closed()
+        assert gate.is_closed()
         a = _later(_SubscriberImpl.receive_callback, FakeSub(got), ['m1', 'm2'], None)
         time.sleep(0.05)
         b = _later(ServiceImpl._handle_request, FakeService(got), Transport(), 'req')
         time.sleep(0.2)
         assert got == [] and a.is_alive() and b.is_alive()    # both wait
     finally:
-        stepgate.reopen()
+        gate.reopen()
     a.join(5)
     b.join(5)
     assert not a.is_alive() and not b.is_alive()
@@ -92,7 +93,7 @@ def test_inputs_wait_while_the_gate_is_closed(monkeypatch):
     assert got.index('m1') < got.index('m2') and got.index('req') < got.index('answered')
     # open: at once, in the calling thread
     _SubscriberImpl.receive_callback(FakeSub(got), ['m3'], None)
-    assert got[-1] == 'm3' and not stepgate.is_closed()
+    assert got[-1] == 'm3' and not gate.is_closed()
 
 
 def test_close_waits_for_inputs_already_in_hand():
@@ -108,7 +109,7 @@ def test_close_waits_for_inputs_already_in_hand():
     a = _later(_SubscriberImpl.receive_callback, Slow(got), ['slow'], None)
     assert inside.wait(5)
     closed = threading.Event()
-    c = _later(lambda: (stepgate.close(), closed.set()))
+    c = _later(lambda: (gate.close(), closed.set()))
     try:
         time.sleep(0.2)
         assert not closed.is_set() and got == []       # the step has not begun
@@ -117,7 +118,7 @@ def test_close_waits_for_inputs_already_in_hand():
     finally:
         go.set()
         c.join(5)
-        stepgate.reopen()
+        gate.reopen()
     a.join(5)
 
 
@@ -136,9 +137,9 @@ def test_the_step_request_itself_does_not_wait_for_itself(monkeypatch):
 
     def step(req):
         t0 = time.monotonic()
-        stepgate.close(wait=3.0)
+        gate.close(wait=3.0)
         took.append(time.monotonic() - t0)
-        stepgate.reopen()
+        gate.reopen()
     svc = FakeService([])
     svc.handler = step
     ServiceImpl._handle_request(svc, Transport(), 'step')
@@ -156,16 +157,16 @@ def test_an_input_that_never_ends_delays_the_step_at_most_the_wait(caplog):
     assert inside.wait(5)
     t0 = time.monotonic()
     try:
-        stepgate.close(wait=0.3)
+        gate.close(wait=0.3)
         assert 0.25 <= time.monotonic() - t0 < 2.0
         assert 'still in hand after 0.3 s' in caplog.text
     finally:
-        stepgate.reopen()
+        gate.reopen()
         go.set()
     a.join(5)
 
 
-@pytest.mark.skipif(stepgate._FUTEX is None, reason='futex syscall number unknown here')
+@pytest.mark.skipif(gate.FUTEX_SYSCALL is None, reason='futex syscall number unknown here')
 def busy_receiver(name):
     """A receive thread like rospy's (recv, deserialise, callback), named after its topic,
     that works 0.3 s on each message it reads off its socket before the message counts as
@@ -198,14 +199,14 @@ def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_g
     b, done, th = busy_receiver('/app/answer')
     try:
         time.sleep(0.05)
-        assert stepgate.receivers_busy() == []                  # waiting for bytes: idle
+        assert gate.receivers_busy() == []                  # waiting for bytes: idle
         # embedded: the runner's own thread asks (not through the gate): no wait
         b.send(b'x')
         time.sleep(0.05)
-        assert stepgate.receivers_busy() == ['/app/answer']
+        assert gate.receivers_busy() == ['/app/answer']
         t0 = time.monotonic()
-        stepgate.close()
-        stepgate.reopen()
+        gate.close()
+        gate.reopen()
         assert not done and time.monotonic() - t0 < 0.2
         while not done:
             time.sleep(0.01)
@@ -215,7 +216,7 @@ def test_a_step_requested_over_a_socket_waits_for_a_message_between_socket_and_g
         time.sleep(0.05)
         with _step_requested_over_a_socket():
             assert done, 'the step began before the message read off its socket was handled'
-            assert stepgate.receivers_busy() == []
+            assert gate.receivers_busy() == []
     finally:
         b.close()
         th.join(5)
@@ -251,7 +252,7 @@ def test_a_service_request_read_off_its_socket_holds_the_step_back_too():
     once the gate is installed, so a request it has read and is still deserialising holds
     a step requested over a socket back, as a subscriber's message does."""
     import socket
-    stepgate.install()
+    gate.install()
     a, b = socket.socketpair()
     done = []
     svc = FakeService(done)
@@ -267,10 +268,10 @@ def test_a_service_request_read_off_its_socket_holds_the_step_back_too():
     try:
         time.sleep(0.05)
         assert th.name == '/phone/inject_touch'
-        assert stepgate.receivers_busy() == []                  # waiting for a request
+        assert gate.receivers_busy() == []                  # waiting for a request
         b.send(b'touch')
         time.sleep(0.05)
-        assert stepgate.receivers_busy() == ['/phone/inject_touch']
+        assert gate.receivers_busy() == ['/phone/inject_touch']
         with _step_requested_over_a_socket():
             assert done == [b'touch'], 'the step began before the request was served'
     finally:

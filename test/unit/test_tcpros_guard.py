@@ -1,4 +1,4 @@
-"""sim_world.tcpros_guard without a roscore: when a connection's header is complete, and
+"""sim_world.transport.tcpros_guard without a roscore: when a connection's header is complete, and
 the connections it drops (silent, announcing a huge header, closed early). With a real world
 and raw sockets: test/test_fuzz_tcpros.py."""
 import socket
@@ -8,7 +8,7 @@ import threading
 import pytest
 
 pytest.importorskip('rospy')
-from sim_world import tcpros_guard  # noqa: E402
+from sim_world.transport import tcpros_guard  # noqa: E402
 
 
 @pytest.fixture

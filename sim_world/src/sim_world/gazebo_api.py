@@ -30,7 +30,7 @@ from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelSta
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
-from . import fastpub, stepgate, tcpros_guard
+from . import transport
 from .model import ModelError
 from .spawn import spawn_xml
 from .transforms import InvalidPose, Pose
@@ -73,16 +73,16 @@ def _transform(parent, child, pose, stamp):
 class GazeboRosApi(object):
     def __init__(self, world, paused=False):
         # a client that connects and sends no header must not stall this node's other
-        # connections (rospy reads headers in its accept loop; sim_world.tcpros_guard)
-        tcpros_guard.install()
+        # connections (rospy reads headers in its accept loop; sim_world.transport.tcpros_guard)
+        transport.guard_handshakes()
         self.world = world
         # messages without header stamps are timed by the sim time they went out at, for
         # step_world's callers (the testing instance times them by it, not by arrival)
-        fastpub.set_sim_clock(lambda: self.world.sim_time)
+        transport.set_sim_clock(lambda: self.world.sim_time)
         # before any subscriber connects: rospy hands each connection's receive thread the
         # subscriber's receive_callback as it is then (a bound method), so a gate installed
         # later would not hold the inputs of the connections made before
-        stepgate.install()
+        transport.install_gate()
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
         self.step_until = None                   # step_world: pause at this sim time
@@ -91,30 +91,30 @@ class GazeboRosApi(object):
         self._last_tf_stamp = None
         self._static_tf = {}
         # /clock goes out before every plugin tick: queued without rospy's per-message GIL
-        # yield (sim_world.fastpub), which cost the world thread more than the message itself;
+        # yield (sim_world.transport), which cost the world thread more than the message itself;
         # this node's own /clock subscriber (use_sim_time) is called directly
-        self.clock_pub = fastpub.publisher('/clock', Clock, queue_size=10, inline_local=True)
-        self.states_pub = fastpub.publisher('/gazebo/model_states', ModelStates, queue_size=1)
-        self.tf_pub = fastpub.publisher('/tf', TFMessage, queue_size=100)
-        self.tf_static_pub = fastpub.publisher('/tf_static', TFMessage, queue_size=100,
-                                               latch=True)
+        self.clock_pub = transport.publisher('/clock', Clock, queue_size=10, inline_local=True)
+        self.states_pub = transport.publisher('/gazebo/model_states', ModelStates, queue_size=1)
+        self.tf_pub = transport.publisher('/tf', TFMessage, queue_size=100)
+        self.tf_static_pub = transport.publisher('/tf_static', TFMessage, queue_size=100,
+                                                 latch=True)
         self._last_clock = None
         self.spawned = OrderedDict()     # model name -> its SpawnModel request (reload_world)
         self.attach(world)
         self.services = [
-            rospy.Service('/gazebo/get_model_state', GetModelState, self.get_model_state),
-            rospy.Service('/gazebo/set_model_state', SetModelState, self.set_model_state),
-            rospy.Service('/gazebo/spawn_urdf_model', SpawnModel, self.spawn_urdf_model),
-            rospy.Service('/gazebo/spawn_sdf_model', SpawnModel, self.spawn_sdf_model),
-            rospy.Service('/gazebo/delete_model', DeleteModel, self.delete_model),
-            rospy.Service('/gazebo/pause_physics', Empty, self.pause),
-            rospy.Service('/gazebo/unpause_physics', Empty, self.unpause),
-            rospy.Service('/gazebo/reset_world', Empty, self.reset_world),
-            rospy.Service('/gazebo/reset_simulation', Empty, self.reset_simulation),
-            rospy.Service('/gazebo/step_world', StepWorld, self.step_world),
+            transport.service('/gazebo/get_model_state', GetModelState, self.get_model_state),
+            transport.service('/gazebo/set_model_state', SetModelState, self.set_model_state),
+            transport.service('/gazebo/spawn_urdf_model', SpawnModel, self.spawn_urdf_model),
+            transport.service('/gazebo/spawn_sdf_model', SpawnModel, self.spawn_sdf_model),
+            transport.service('/gazebo/delete_model', DeleteModel, self.delete_model),
+            transport.service('/gazebo/pause_physics', Empty, self.pause),
+            transport.service('/gazebo/unpause_physics', Empty, self.unpause),
+            transport.service('/gazebo/reset_world', Empty, self.reset_world),
+            transport.service('/gazebo/reset_simulation', Empty, self.reset_simulation),
+            transport.service('/gazebo/step_world', StepWorld, self.step_world),
         ]
-        self.set_sub = rospy.Subscriber('/gazebo/set_model_state', ModelState,
-                                        self._set_state_topic, queue_size=100)
+        self.set_sub = transport.subscriber('/gazebo/set_model_state', ModelState,
+                                            self._set_state_topic, queue_size=100)
 
     def attach(self, world, spawned=None):
         """Serve ``world`` from now on (sim_world's /gazebo/reload_world swaps in a new one;
@@ -216,8 +216,8 @@ class GazeboRosApi(object):
         return EmptyResponse()
 
     def unpause(self, _req):
-        if fastpub.holding():             # a pipelined runner's last slice: the world runs
-            fastpub.release(stop=True)
+        if transport.holding():             # a pipelined runner's last slice: the world runs
+            transport.release(stop=True)
         self.paused = False
         self.reset_anchor.set()
         return EmptyResponse()
@@ -238,15 +238,15 @@ class GazeboRosApi(object):
         steps = until > self.world.sim_time + 0.5 * self.world.step_size
         if steps:
             # what other nodes send (an app's answer, a service call) waits for the step's
-            # end: it lands at a slice boundary however fast the app is (stepgate)
-            stepgate.close()
+            # end: it lands at a slice boundary however fast the app is (the transport's gate)
+            transport.close_gate()
         if getattr(req, 'pipeline', False):
             if steps:
                 # the apps get the last slice now and work on it while this one runs
-                fastpub.release()
-                fastpub.hold(keep=(req.subscriber,) if req.subscriber else ())
-        elif fastpub.holding():
-            fastpub.release(stop=True)
+                transport.release()
+                transport.hold(keep=(req.subscriber,) if req.subscriber else ())
+        elif transport.holding():
+            transport.release(stop=True)
         self.step_done.clear()
         self.step_until = until
         self.paused = False
@@ -256,13 +256,11 @@ class GazeboRosApi(object):
                 if rospy.is_shutdown():
                     break
         finally:
-            stepgate.reopen()
+            transport.reopen_gate()
         self.step_until = None
         # the slice's messages to remote subscribers are in their sockets before the answer:
         # an app that looks idle then has answered (testing_instance.appwatch's evidence)
-        fastpub.wait_sent()
-        counts = fastpub.handed_to(req.subscriber) if req.subscriber else {}
-        times = fastpub.take_times(req.subscriber) if req.subscriber else {}
+        counts, times = transport.slice_report(req.subscriber)
         topics = sorted(counts)
         timed = sorted(times)
         return StepWorldResponse(True, 'StepWorld: paused at %.6f' % self.world.sim_time,

@@ -24,7 +24,7 @@ import time
 import rospy
 import rospy.core
 
-from . import fastpub
+from . import transport
 from .gazebo_api import GazeboRosApi, run_loop
 from .model import ModelError
 ENGINES = ("ode", "bullet")
@@ -159,7 +159,7 @@ class WorldHost(object):
         self._pending = None              # (plan, done Event, result box) for the loop
         self._one = threading.Lock()
         from mobile_device_sim.srv import ReloadWorld
-        self.reload_srv = rospy.Service('/gazebo/reload_world', ReloadWorld, self.reload)
+        self.reload_srv = transport.service('/gazebo/reload_world', ReloadWorld, self.reload)
 
     def build(self, seed):
         world = World(physics=self.engine, step_size=self.step, gravity=self.gravity,
@@ -222,7 +222,7 @@ class WorldHost(object):
             except ValueError as e:
                 return self._refused(ReloadWorldResponse, str(e))
             # a pipelined scenario's last slice, held for its apps, is the old world's
-            fastpub.release(drop=True, stop=True)
+            transport.release(drop=True, stop=True)
             done, box = threading.Event(), {}
             self._pending = (plan, done, box)
             self.api.reset_anchor.set()           # wakes a paused loop at once

@@ -14,7 +14,7 @@ from mobile_device_sim.msg import EnvironmentValue
 from mobile_device_sim.srv import (SetEnvironment, SetEnvironmentResponse, SetSensorFault,
                                    SetSensorFaultResponse)
 
-from . import fastpub
+from . import transport
 from .environment import EnvironmentError
 from .plugins.sensor import inject_fault
 
@@ -33,8 +33,8 @@ class WorldServices(object):
         self.env_pub = None
         self.attach(world)
         self.services = [
-            rospy.Service('/gazebo/set_environment', SetEnvironment, self.set_environment),
-            rospy.Service('/gazebo/set_sensor_fault', SetSensorFault, self.set_sensor_fault),
+            transport.service('/gazebo/set_environment', SetEnvironment, self.set_environment),
+            transport.service('/gazebo/set_sensor_fault', SetSensorFault, self.set_sensor_fault),
         ]
 
     def attach(self, world):
@@ -43,8 +43,8 @@ class WorldServices(object):
         self.world = world
         if self.env_pub is not None:
             self.env_pub.unregister()
-        self.env_pub = fastpub.publisher('/gazebo/environment', EnvironmentMsg, queue_size=10,
-                                         latch=True)
+        self.env_pub = transport.publisher('/gazebo/environment', EnvironmentMsg, queue_size=10,
+                                           latch=True)
         self.publish_environment()
 
     def publish_environment(self):

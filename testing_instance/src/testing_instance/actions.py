@@ -105,7 +105,7 @@ class Actions(object):
         """Publish once a subscriber (an app) is connected, at most 5 s of wall time later:
         woken by rospy's SubscribeListener as it connects, not by polling. The next step
         lets the world take it first (Runner._step: an embedded world's receive threads
-        settle; a world node's step request waits for them, sim_world.stepgate)."""
+        settle; a world node's step request waits for them, sim_world.transport's gate)."""
         pub = self._publisher(topic, type(msg))
         pub.connected.wait(pub.get_num_connections, 5.0)
         pub.publish(msg)

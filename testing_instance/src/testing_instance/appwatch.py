@@ -11,7 +11,7 @@ nothing it sent waits in the runner (the runner's sockets are empty and every me
 subscriptions deserialised has reached the inbox: ``own_pending``). The runner
 checks that after each slice (``wait``), woken by every message that arrives. The world
 answers a step only once every message of the slice is written to its subscribers'
-sockets (sim_world.fastpub.wait_sent): a message still in the world's queue for an app
+sockets (sim_world.transport.wait_sent): a message still in the world's queue for an app
 would look like an idle app with nothing to read. And the runner's own receive threads
 (an embedded world's too) must all be waiting for bytes (procs.receivers_busy): one that
 has taken an app's message off its socket but waits for the GIL before handing it on

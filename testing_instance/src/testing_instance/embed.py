@@ -11,8 +11,9 @@ is one node: the same name, namespace, remappings and private parameters), build
 WorldHost the sim_world executable builds, and steps it by a function call. Every topic and
 service is still served over ROS, so apps, rostopic, rosbag and rviz see the same graph as
 with the sim_world node; only the runner's own subscriptions take the world's messages as
-objects (sim_world.fastpub's local delivery, counted for the slice handshake like a remote
-connection), and its service calls to the world are function calls (:class:`LocalService`).
+objects (sim_world.transport's local delivery, counted for the slice handshake like a
+remote connection), and its service calls to the world are function calls
+(sim_world.transport.local_service).
 """
 import logging
 import os
@@ -21,7 +22,7 @@ from . import procs
 from .procs import Proc
 from .results import RunError
 
-__all__ = ['LaunchPlan', 'LocalService', 'plan_launch', 'WORLD_NODE']
+__all__ = ['LaunchPlan', 'plan_launch', 'WORLD_NODE']
 
 WORLD_NODE = ('mobile_device_sim', 'sim_world')     # (package, type) of the world node
 
@@ -121,45 +122,6 @@ def plan_launch(path, args, port):
         return plan
     nodes = [n for n in config.nodes if n is not worlds[0]]
     return LaunchPlan(worlds[0], params, list(config.clear_params), nodes)
-
-
-class LocalService(object):
-    """A service of this very process, called as a function: a ServiceProxy's interface
-    (positional or keyword fields, or a request; ``close``) without the master lookup,
-    the serialization and the socket. A handler's exception becomes rospy's
-    ServiceException, as a remote caller would see it."""
-
-    def __init__(self, impl):
-        self.impl = impl
-        self.resolved_name = impl.resolved_name
-
-    def __call__(self, *args, **kwds):
-        import rospy
-        from rospy.impl.tcpros_service import convert_return_to_response
-        from rospy.msg import args_kwds_to_message
-        impl = self.impl
-        req = args_kwds_to_message(impl.request_class, args, kwds)
-        try:
-            res = impl.handler(req)
-            return convert_return_to_response(res, impl.response_class)
-        except rospy.ServiceException:
-            raise
-        except Exception as e:  # noqa: BLE001 - as rospy reports a handler's error
-            raise rospy.ServiceException('service [%s] responded with an error: %s'
-                                         % (self.resolved_name, e))
-
-    call = __call__
-
-    def close(self):
-        pass
-
-
-def local_service(name):
-    """LocalService of the service ``name`` this process serves, or None."""
-    import rospy
-    from rospy.impl.registration import get_service_manager
-    impl = get_service_manager().get_service(rospy.resolve_name(name))
-    return LocalService(impl) if impl is not None else None
 
 
 class LogFile(object):

@@ -21,6 +21,8 @@ into the Inbox (for the expectations) and the Recorder.
 import collections
 import time
 
+from sim_world import transport
+
 from .procs import poll
 from .recording import EVENTS_TOPIC, HEAVY_TYPES
 
@@ -81,18 +83,7 @@ class Intake(object):
         """callback(topic) whenever this process declares a publisher from now on: an
         embedded world's plugins made after a spawn or later in a run. rospy's registration
         listeners, through which rospy itself tells the master."""
-        from rospy.impl.registration import (Registration, RegistrationListener,
-                                             get_registration_listeners)
-
-        class Listener(RegistrationListener):
-            def reg_added(self, resolved_name, data_type_or_uri, reg_type):
-                if reg_type == Registration.PUB:
-                    callback(resolved_name)
-
-            def reg_removed(self, resolved_name, data_type_or_uri, reg_type):
-                pass
-        self._listener = Listener()
-        get_registration_listeners().add_listener(self._listener)
+        self._listener = transport.on_new_publisher(callback)
 
     def world_name(self):
         """The world node's name: the node serving /gazebo/step_world (/lab/sim_world in a
@@ -223,10 +214,7 @@ class Intake(object):
         """A subscribed topic of which rospy has deserialised more messages than reached the
         inbox (still in its callback queue), or None."""
         for topic, sub in list(self.subs.items()):
-            impl = getattr(sub, 'impl', None)
-            n = sum(getattr(c, 'stat_num_msg', 0) for c in list(getattr(impl, 'connections',
-                                                                        ())))
-            if n > self.inbox.counts.get(topic, 0):
+            if transport.received_count(sub) > self.inbox.counts.get(topic, 0):
                 return topic
         return None
 
@@ -239,17 +227,13 @@ class Intake(object):
                 s.unregister()
         listener, self._listener = self._listener, None
         if listener is not None:
-            from rospy.impl.registration import get_registration_listeners
-            regs = get_registration_listeners()
-            with regs.lock:
-                if listener in regs.listeners:
-                    regs.listeners.remove(listener)
+            transport.remove_listener(listener)
 
     # -- timing ----------------------------------------------------------------------------
     def on_message(self, msg, topic):
         """A subscription's callback (an embedded world calls it in its own thread)."""
         t = stamp_of(msg)
-        hdr = getattr(msg, '_connection_header', None)
+        hdr = transport.connection_header(msg)
         # a message handed over in this process (an embedded world's) has no header
         caller = hdr.get('callerid') if hdr else (self.world_node if self.embedded else None)
         if self.embedded and hdr and topic in self.own_topics():

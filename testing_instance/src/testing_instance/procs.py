@@ -668,7 +668,7 @@ def socket_inodes(pid):
 
 
 # the one copy, in the world's step gate (a world node checks its own receive threads)
-from sim_world.stepgate import _FUTEX, receivers_busy  # noqa: E402,F401 - re-exported
+from sim_world.transport import FUTEX_SYSCALL, receivers_busy  # noqa: E402,F401 - re-exported
 
 
 class TcpQueues(dict):

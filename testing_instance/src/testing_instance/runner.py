@@ -35,7 +35,7 @@ import tempfile
 import threading
 import time
 
-from sim_world import stepgate
+from sim_world import transport
 
 from . import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
@@ -582,7 +582,7 @@ class Runner(Actions):
             if self.embedded:
                 # this process's receive threads take the actions' messages off their
                 # sockets before the step (a world node's step request waits for its own)
-                stepgate.settle()
+                transport.settle()
         r = self.step_srv(until=until, subscriber=self.rospy.get_name(),
                           pipeline=self.sc.pipeline if pipeline is None else pipeline)
         if not r.success:

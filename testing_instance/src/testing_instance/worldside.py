@@ -222,8 +222,8 @@ class WorldSide(object):
             # rospy takes a node's namespace from ROS_NAMESPACE or this process's own argv
             # when it is imported, never from init_node's argv (__ns:=): set it as
             # roslaunch's ROS_NAMESPACE would (not in the environment: the apps inherit it)
-            import rospy.names
-            rospy.names._set_caller_id(self.launch_plan.world_namespace() + 'unnamed')
+            from sim_world import transport
+            transport.set_namespace(self.launch_plan.world_namespace())
             rospy.init_node(self.launch_plan.world.name, argv=argv, disable_signals=True)
             self._embed(argv, on_message)
         elif not rospy.core.is_initialized():    # a warm worker's runners share the node
@@ -248,8 +248,8 @@ class WorldSide(object):
                            self.log_tail() + traceback.format_exc().splitlines()[-12:])
         # the world's messages reach the intake in the world's own thread (no delivery thread
         # woken per message, no GIL hand-off): the runner waits for the step anyway
-        from sim_world import fastpub
-        fastpub.deliver_inline(on_message)
+        from sim_world import transport
+        transport.deliver_inline(on_message)
         _thread, self.failed = self.host.start()
 
     def settings(self):
@@ -301,7 +301,7 @@ class WorldSide(object):
         if name not in self._proxies:
             local = None
             if self.embedded:       # the world's services are this process's: a call
-                from .embed import local_service
+                from sim_world.transport import local_service
                 local = local_service(name)
             self._proxies[name] = local or self.rospy.ServiceProxy(name, typ,
                                                                    persistent=True)

@@ -247,9 +247,9 @@ class Device(Plugin):
             topic = self.resolve(topic)
         ros_pub = None
         if self.ros:
-            from sim_world import fastpub       # counted for the slice handshake
-            ros_pub = fastpub.publisher(topic, msg_type, latch=latch,
-                                        queue_size=queue_size or self.QUEUE_SIZE)
+            from sim_world import transport     # counted for the slice handshake
+            ros_pub = transport.publisher(topic, msg_type, latch=latch,
+                                          queue_size=queue_size or self.QUEUE_SIZE)
         out = Output(key, topic, msg_type, ros_pub, latch, noisy, event, on_change, repeat)
         self.outputs[key] = out
         self.pubs.append(out)
@@ -279,17 +279,17 @@ class Device(Plugin):
     def subscribe(self, rel_topic, msg_type, callback, queue_size=10):
         if not self.ros:
             return None
-        import rospy
-        sub = rospy.Subscriber(self.resolve(rel_topic), msg_type, callback,
-                               queue_size=queue_size)
+        from sim_world import transport
+        sub = transport.subscriber(self.resolve(rel_topic), msg_type, callback,
+                                   queue_size=queue_size)
         self.subs.append(sub)
         return sub
 
     def service(self, rel_name, srv_type, callback):
         if not self.ros:
             return None
-        import rospy
-        srv = rospy.Service(self.resolve(rel_name), srv_type, callback)
+        from sim_world import transport
+        srv = transport.service(self.resolve(rel_name), srv_type, callback)
         self.srvs.append(srv)
         return srv
 

@@ -1,4 +1,5 @@
-"""Publishers for the simulation thread that do not hand the GIL away on every message.
+"""The publishers' connections (fastpub before issue 45): counted, timed, held, and sent
+without handing the GIL away on every message.
 
 rospy's queued publisher (``queue_size`` set) appends each serialized message to a
 per-subscriber queue and then calls ``time.sleep(0)`` "to yield the rest of the thread
@@ -33,7 +34,7 @@ __all__ = ['NoYieldConnection', 'deliver_inline', 'handed_to', 'hold', 'holding'
            'publisher', 'release', 'set_sim_clock', 'subscribed_here', 'take_times', 'unsent',
            'wait_sent']
 
-log = logging.getLogger('sim_world.fastpub')
+log = logging.getLogger('sim_world.transport.connections')
 
 _sim_clock = [None]
 _locals = []                   # the live _LocalDelivery objects

@@ -14,12 +14,13 @@ calls/s to 0 and a new subscriber never connected while a few silent sockets wer
 ``MSG_PEEK``, until the whole header is in the socket's buffer, for at most
 ``HEADER_TIMEOUT`` s, and refuses a header longer than ``MAX_HEADER`` bytes; then it passes
 the connection, blocking as before, to rospy's own callback, which reads the header at
-once and sets up the publisher or service connection as always (sim_world.fastpub's
+once and sets up the publisher or service connection as always (sim_world.transport.connections'
 connections included). A dropped connection is one warning line naming the peer and why;
 a flood of them (a port scanner, a fuzzer) is said at most ``LOG_BURST`` times per
 ``LOG_WINDOW`` s, and the next line says how many were dropped without a line.
 Install it after ``rospy.init_node`` in a process that serves topics or services (the
-sim_world node, and the world embedded in run_scenario: sim_world.gazebo_api does it)."""
+sim_world node, and the world embedded in run_scenario: sim_world.gazebo_api does it
+through the facade, sim_world.transport.guard_handshakes)."""
 import socket
 import struct
 import threading

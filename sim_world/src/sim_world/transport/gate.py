@@ -1,4 +1,4 @@
-"""Inputs from other nodes wait while the world steps a slice of the testing instance's
+"""The gate (stepgate before issue 45): inputs from other nodes wait while the world steps a slice of the testing instance's
 lockstep.
 
 In the lockstep an app answers what a slice brought it; what it sends (a topic the world
@@ -28,7 +28,7 @@ An embedded world's runner checks the same threads itself, as its own: after a s
 apps' answers) and, with :func:`settle`, before a step that follows its own actions'
 messages to the world (a radio switched off at sim time 0 landed a slice late under load).
 
-Messages this node publishes to itself (sim_world.fastpub's local deliveries: a world's
+Messages this node publishes to itself (sim_world.transport.connections' local deliveries: a world's
 /clock, the camera preview of the display, an embedded world's messages to the runner) do
 not pass a socket and are not held.
 """
@@ -37,9 +37,10 @@ import platform
 import threading
 import time
 
-__all__ = ['close', 'install', 'is_closed', 'receivers_busy', 'reopen', 'settle']
+__all__ = ['FUTEX_SYSCALL', 'close', 'install', 'is_closed', 'receivers_busy', 'reopen',
+           'settle']
 
-log = logging.getLogger('sim_world.stepgate')
+log = logging.getLogger('sim_world.transport.gate')
 
 _cond = threading.Condition(threading.Lock())
 _closed = [False]
@@ -96,7 +97,7 @@ def _settle(me, deadline, wait):
 
 
 # the futex syscall's number (a thread waiting for a lock: the GIL), per architecture
-_FUTEX = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machine())
+FUTEX_SYSCALL = {'x86_64': '202', 'aarch64': '98', 'riscv64': '98'}.get(platform.machine())
 
 
 def receivers_busy(exclude=None):
@@ -109,7 +110,7 @@ def receivers_busy(exclude=None):
     empty again) and has not yet handed the message to its callbacks is running or, behind
     the GIL, waiting on a futex. [] where the futex syscall's number is not known (another
     architecture)."""
-    if _FUTEX is None:
+    if FUTEX_SYSCALL is None:
         return []
     out = []
     for th in threading.enumerate():
@@ -121,7 +122,7 @@ def receivers_busy(exclude=None):
                 call = f.read().split(None, 1)[0]
         except (OSError, IndexError):
             continue                                  # it ended just now
-        if call in ('running', _FUTEX, '-1'):
+        if call in ('running', FUTEX_SYSCALL, '-1'):
             out.append(th.name)
     return out
 

@@ -386,13 +386,14 @@ def test_lumped_body_dynamics_on_both_engines(engine):
     assert np.linalg.norm(lp['heavy'].p - lp['light'].p) == pytest.approx(0.3, abs=1e-9)
 
 
-def test_non_fixed_joint_is_lumped_with_one_warning(engine, caplog):
+def test_non_fixed_joint_is_articulated(engine):
+    """Issue 48: a revolute joint is simulated (no longer lumped): the arm swings down
+    under gravity around the elbow while the base stays one body of its own."""
     links = {'base': box_link('base', (0.1, 0.1, 0.1)), 'arm': box_link('arm', (0.1, 0.1, 0.1))}
-    joints = [Joint('elbow', 'revolute', 'base', 'arm', Pose((0, 0, 0.2)), axis=(0, 1, 0))]
-    with caplog.at_level(logging.WARNING, logger='sim_world.physics'):
-        engine.add_model(Model('robot', links, joints, pose=Pose((0, 0, 1))))
-    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert len(warnings) == 1 and "'elbow'" in warnings[0] and 'revolute' in warnings[0]
+    joints = [Joint('elbow', 'continuous', 'base', 'arm', Pose((0, 0, 0.2)), axis=(0, 1, 0))]
+    engine.add_model(Model('robot', links, joints, pose=Pose((0, 0, 1))))
+    assert engine.joint_names('robot') == ['elbow']
+    assert engine.joint_state('robot', 'elbow') == pytest.approx((0.0, 0.0), abs=1e-9)
 
 
 def test_mixed_gravity_links_keep_gravity(engine, caplog):

@@ -5,6 +5,7 @@ objects; the physics backends, the renderer and the plugins read them. Poses of 
 collisions and inertials are relative to their link; a link's pose in the model follows
 from the joint tree (``Model.link_poses``). Units are SI (REP 103).
 """
+import logging
 import math
 import os
 
@@ -12,9 +13,11 @@ import numpy as np
 
 from .transforms import Pose
 
+log = logging.getLogger('sim_world.model')
+
 __all__ = ['ModelError', 'parse_floats', 'check_position', 'MAX_MASS', 'MIN_MASS', 'MAX_INERTIA',
            'MAX_SIZE', 'MAX_POSITION', 'Geometry', 'Material', 'Visual', 'Collision', 'Inertial', 'Link',
-           'Joint', 'PluginSpec', 'Light', 'Model', 'cuboid_inertia', 'cylinder_inertia',
+           'Joint', 'joint_motion', 'MAX_JOINT_VALUE', 'PluginSpec', 'Light', 'Model', 'cuboid_inertia', 'cylinder_inertia',
            'sphere_inertia']
 
 
@@ -200,9 +203,24 @@ class Link(object):
 
 
 class Joint(object):
-    TYPES = ('fixed', 'revolute', 'continuous', 'prismatic', 'floating', 'planar')
+    """A joint as Gazebo's URDF converter (sdformat parser_urdf) reads it.
 
-    def __init__(self, name, type, parent, child, origin=None, axis=(1.0, 0.0, 0.0)):
+    type: 'fixed', 'revolute', 'continuous', 'prismatic' are simulated; 'floating' and
+    'planar' are refused when the model is validated. ``origin``: the child link's frame in
+    the parent link's frame at position zero (URDF ``<origin>``); ``axis``: unit vector in
+    the joint (= child link) frame. ``lower``/``upper``: position limits (rad or m; None:
+    unlimited; continuous joints have none); ``effort`` (N m or N) and ``velocity`` (rad/s
+    or m/s): limits, -1 for none (Gazebo's convention); ``damping`` (N m s/rad) viscous,
+    ``friction`` (N m) Coulomb; ``mimic``: (joint name, multiplier, offset) or None (kept,
+    not simulated: Gazebo classic's converter ignores it too); ``preserve``: a fixed joint
+    kept as a joint (``<preserveFixedJoint>``) instead of lumped; ``initial``: position at
+    spawn (``spawn_model -J``)."""
+    TYPES = ('fixed', 'revolute', 'continuous', 'prismatic', 'floating', 'planar')
+    MOVABLE = ('revolute', 'continuous', 'prismatic')
+
+    def __init__(self, name, type, parent, child, origin=None, axis=(1.0, 0.0, 0.0),
+                 lower=None, upper=None, effort=-1.0, velocity=-1.0, damping=0.0,
+                 friction=0.0, mimic=None, preserve=False):
         if type not in self.TYPES:
             raise ModelError('joint %r has unknown type %r' % (name, type))
         self.name = name
@@ -211,6 +229,89 @@ class Joint(object):
         self.child = child
         self.origin = origin or Pose()
         self.axis = np.asarray(axis, dtype=float)
+        self.lower = None if lower is None else float(lower)
+        self.upper = None if upper is None else float(upper)
+        self.effort = float(effort)
+        self.velocity = float(velocity)
+        self.damping = float(damping)
+        self.friction = float(friction)
+        self.mimic = mimic
+        self.preserve = bool(preserve)
+        self.initial = 0.0
+        self.frame = Pose()      # joint frame in the child link frame (SDF <pose>)
+
+    @property
+    def movable(self):
+        return self.type in self.MOVABLE
+
+    def check(self, what=''):
+        """ModelError naming the joint for values no engine can simulate; returns the list
+        of warnings (strings) for values Gazebo accepts and treats in its own way."""
+        what = '%sjoint %r' % (what, self.name)
+        warnings = []
+        if self.type in ('floating', 'planar'):
+            raise ModelError('%s: %s joints are not supported (Gazebo classic does not simulate '
+                             'them either); use separate models or a fixed joint'
+                             % (what, self.type))
+        vals = [self.effort, self.velocity, self.damping, self.friction]
+        vals += [v for v in (self.lower, self.upper) if v is not None]
+        if not all(math.isfinite(v) for v in vals):
+            raise ModelError('%s: limit or dynamics value is not finite' % what)
+        if not self.movable:
+            return warnings
+        a = self.axis
+        if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) < 1e-9:
+            raise ModelError('%s: axis %s is not a direction' % (what, list(np.ravel(a))))
+        self.axis = a / np.linalg.norm(a)
+        if self.damping < 0 or self.friction < 0:
+            raise ModelError('%s: damping %g and friction %g must be >= 0'
+                             % (what, self.damping, self.friction))
+        for v, n in ((self.damping, 'damping'), (self.friction, 'friction')):
+            if v > MAX_JOINT_VALUE:
+                raise ModelError('%s: %s %g is larger than %g' % (what, n, v, MAX_JOINT_VALUE))
+        if self.effort > MAX_JOINT_VALUE:
+            warnings.append('%s: effort limit %g capped at %g' % (what, self.effort,
+                                                                  MAX_JOINT_VALUE))
+            self.effort = MAX_JOINT_VALUE
+        for v in (self.lower, self.upper):
+            if v is not None and abs(v) > MAX_POSITION:
+                raise ModelError('%s: limit %g is beyond %g' % (what, v, MAX_POSITION))
+        if self.type == 'continuous':
+            self.lower = self.upper = None
+        elif (self.lower is not None and self.upper is not None
+              and self.lower > self.upper):
+            # ODE (Gazebo's engine): "if the high stop is less than the low stop then both
+            # stops will be ineffective"
+            warnings.append('%s: lower limit %g is above upper limit %g: both limits are '
+                            'ignored, as ODE in Gazebo does' % (what, self.lower, self.upper))
+            self.lower = self.upper = None
+        if self.effort == 0 and self.type != 'continuous':
+            warnings.append('%s: effort limit 0: efforts on it are clamped to 0, as in Gazebo'
+                            % what)
+        return warnings
+
+    def __repr__(self):
+        return 'Joint(%s %s %s->%s)' % (self.name, self.type, self.parent, self.child)
+
+
+#: bound of a joint's damping, friction and effort limit (fuzzed models: 1e9 N m)
+MAX_JOINT_VALUE = 1e6
+
+
+def joint_motion(joint, q):
+    """Pose of the child frame in the joint frame at position ``q``."""
+    if not joint.movable or q == 0:
+        return Pose()
+    if joint.type == 'prismatic':
+        m = Pose(joint.axis * q)
+    else:
+        a = joint.axis / max(np.linalg.norm(joint.axis), 1e-12)
+        s = math.sin(q / 2.0)
+        m = Pose((0.0, 0.0, 0.0), (a[0] * s, a[1] * s, a[2] * s, math.cos(q / 2.0)))
+    f = joint.frame
+    if np.any(f.p) or f.q[3] != 1.0:
+        return f * m * f.inverse()
+    return m
 
 
 class PluginSpec(object):
@@ -328,6 +429,24 @@ class Model(object):
         self.robot_namespace = robot_namespace
         self.tf_prefix = None    # tf frame prefix; None: the robot namespace (see gazebo_api)
         self.source_xml = None
+        self.warnings = []       # what validate() warned about (each logged once)
+
+    @property
+    def welded(self):
+        """True when the root link is named ``world``: the model is welded to the world
+        (Gazebo's URDF convention for a fixed-base robot)."""
+        return self.root_link == 'world'
+
+    def joint(self, name):
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError('model %r has no joint %r' % (self.name, name))
+
+    def _warn(self, text):
+        if text not in self.warnings:
+            self.warnings.append(text)
+            log.warning('model %r: %s', self.name, text)
 
     @property
     def root_link(self):
@@ -341,7 +460,15 @@ class Model(object):
         if not self.links:
             raise ModelError('model %r has no links' % self.name)
         names = set()
+        jnames = set()
         for j in self.joints:
+            if j.name in jnames:
+                raise ModelError('model %r: joint %r is defined twice' % (self.name, j.name))
+            jnames.add(j.name)
+            for w in j.check():
+                self._warn(w)
+            if j.parent == j.child:
+                raise ModelError('joint %r joins link %r to itself' % (j.name, j.parent))
             if j.parent not in self.links:
                 raise ModelError('joint %r names unknown parent link %r' % (j.name, j.parent))
             if j.child not in self.links:
@@ -354,12 +481,55 @@ class Model(object):
             raise ModelError('model %r must have exactly one root link, has %d: %s'
                              % (self.name, len(roots), roots))
         self.link_poses()  # detects loops / unreachable links
+        self._check_mimic()
         self.resolve_paths()
         for p in self.plugins:
             if p.link is not None and p.link not in self.links:
                 raise ModelError('<gazebo reference="%s"> names an unknown link of model %r'
                                  % (p.link, self.name))
         return self
+
+    def _check_mimic(self):
+        """A mimic naming an unknown or non-movable joint, or a mimic cycle: one warning
+        naming the joint, and the mimic is dropped (it is never simulated: Gazebo classic's
+        converter ignores <mimic> too)."""
+        by_name = dict((j.name, j) for j in self.joints)
+        for j in self.joints:
+            if j.mimic is None:
+                continue
+            target = by_name.get(j.mimic[0])
+            if target is None or not target.movable:
+                self._warn('joint %r mimics %r, which is not a movable joint of the model: '
+                           'mimic dropped' % (j.name, j.mimic[0]))
+                j.mimic = None
+        for j in self.joints:
+            seen, k = [j.name], j
+            while k is not None and k.mimic is not None:
+                k = by_name.get(k.mimic[0])
+                if k is not None and k.name in seen:
+                    self._warn('joints %s mimic each other in a cycle: mimic of %r dropped'
+                               % (seen, j.name))
+                    j.mimic = None
+                    break
+                if k is not None:
+                    seen.append(k.name)
+
+    def joint_poses(self, positions=None):
+        """{link name: pose in the model frame} with movable joints at ``positions``
+        ({joint name: value}; missing ones at their ``initial`` value)."""
+        positions = positions or {}
+        poses = {self.root_link: Pose()}
+        by_parent = {}
+        for j in self.joints:
+            by_parent.setdefault(j.parent, []).append(j)
+        stack = [self.root_link]
+        while stack:
+            parent = stack.pop()
+            for j in by_parent.get(parent, []):
+                poses[j.child] = poses[parent] * j.origin * joint_motion(
+                    j, positions.get(j.name, j.initial))
+                stack.append(j.child)
+        return poses
 
     def link_poses(self):
         """{link name: pose of the link in the model (root link) frame}, from joint origins

@@ -211,7 +211,7 @@ def parse_sdf_model(mel, base_dir=None, what=None):
             raise ModelError('%s joint %r connects unknown links %r -> %r'
                              % (what, jname, parent, child))
         origin = link_frames[parent].inverse() * link_frames[child]
-        model.joints.append(Joint(jname, jel.get('type', 'fixed'), parent, child, origin))
+        model.joints.append(_joint(jel, jname, parent, child, origin, what))
         joined.add(child)
     for lname in model.links:
         if lname != root_name and lname not in joined:
@@ -224,6 +224,45 @@ def parse_sdf_model(mel, base_dir=None, what=None):
             raise ModelError('%s plugin has no filename' % what)
         model.plugins.append(PluginSpec(fn, pel.get('name', ''), pel))
     return model.validate()
+
+
+def _joint_number(el, tag, what, default):
+    text = _child_text(el, tag)
+    if text is None:
+        return default
+    return float(_vec(text, 1, '%s <%s>' % (what, tag))[0])
+
+
+def _joint(jel, jname, parent, child, origin, what):
+    """An SDF <joint>: <pose> (the joint frame in the child link's frame), <axis><xyz>
+    (in the joint frame), <axis><limit> lower/upper/effort/velocity (|value| >= 1e15, SDF's
+    default 1e16, is no limit), <axis><dynamics> damping/friction."""
+    jwhat = '%s joint %r' % (what, jname)
+    jtype = jel.get('type', 'fixed')
+    if jtype not in Joint.TYPES:
+        raise ModelError('%s: type %r is not supported (fixed, revolute, continuous, '
+                         'prismatic)' % (jwhat, jtype))
+    kw = {}
+    ael = jel.find('axis')
+    axis = (1.0, 0.0, 0.0) if jtype != 'revolute' else (0.0, 0.0, 1.0)
+    if ael is not None:
+        if _child_text(ael, 'xyz') is not None:
+            axis = _vec(_child_text(ael, 'xyz'), 3, jwhat + ' <axis><xyz>')
+        lel = ael.find('limit')
+        if lel is not None:
+            for tag in ('lower', 'upper'):
+                v = _joint_number(lel, tag, jwhat + ' <limit>', None)
+                if v is not None and abs(v) < 1e15:
+                    kw[tag] = v
+            kw['effort'] = _joint_number(lel, 'effort', jwhat + ' <limit>', -1.0)
+            kw['velocity'] = _joint_number(lel, 'velocity', jwhat + ' <limit>', -1.0)
+        dyn = ael.find('dynamics')
+        if dyn is not None:
+            kw['damping'] = _joint_number(dyn, 'damping', jwhat + ' <dynamics>', 0.0)
+            kw['friction'] = _joint_number(dyn, 'friction', jwhat + ' <dynamics>', 0.0)
+    joint = Joint(jname, jtype, parent, child, origin, axis, **kw)
+    joint.frame = _pose(jel, jwhat)
+    return joint
 
 
 def ground_plane_model():

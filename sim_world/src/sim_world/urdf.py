@@ -160,6 +160,7 @@ def parse_urdf(text, name=None, base_dir=None, robot_namespace=''):
     for m in root.findall('material'):
         _material(m, named, 'robot material %r' % m.get('name'))
 
+    zero_mass = []
     for lel in root.findall('link'):
         lname = lel.get('name')
         if not lname:
@@ -179,7 +180,13 @@ def parse_urdf(text, name=None, base_dir=None, robot_namespace=''):
             if inel is not None:
                 for k in ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz'):
                     kw[k] = _float_attr(inel, k, what + ' inertia', default=0.0)
-            inertial = Inertial(mass, parse_pose_attrs(iel.find('origin'), what + ' inertial'), **kw)
+            if mass == 0:
+                # Gazebo's converter: a zero-mass link is a link without inertia (lumped
+                # into its parent by a fixed joint, otherwise dropped; sim_world.physics)
+                zero_mass.append(lname)
+            else:
+                inertial = Inertial(mass, parse_pose_attrs(iel.find('origin'), what + ' inertial'),
+                                    **kw)
         visuals = []
         for i, vel in enumerate(lel.findall('visual')):
             vwhat = '%s visual %d' % (what, i)
@@ -204,15 +211,48 @@ def parse_urdf(text, name=None, base_dir=None, robot_namespace=''):
         p, c = jel.find('parent'), jel.find('child')
         if p is None or c is None or not p.get('link') or not c.get('link'):
             raise ModelError('%s needs <parent link=...> and <child link=...>' % what)
-        axis = jel.find('axis')
-        model.joints.append(Joint(jname, jel.get('type', ''), p.get('link'), c.get('link'),
-                                  parse_pose_attrs(jel.find('origin'), what),
-                                  _floats(axis.get('xyz'), 3, what + ' axis')
-                                  if axis is not None else (1.0, 0.0, 0.0)))
+        model.joints.append(_joint(jel, jname, p.get('link'), c.get('link'), what))
 
     for gel in root.findall('gazebo'):
         _gazebo_extension(gel, model)
+    if zero_mass and not model.static and all(
+            link.inertial is None for link in model.links.values()):
+        raise ModelError('link %r inertial mass must be positive, got 0 (no link of model %r '
+                         'has a mass)' % (zero_mass[0], model_name))
     return model.validate()
+
+
+def _joint(jel, jname, parent, child, what):
+    """One URDF <joint>, read as urdfdom and sdformat's parser_urdf read it: <limit> is
+    required for revolute and prismatic joints (lower/upper default 0, effort and velocity
+    required); <axis> defaults to x; <dynamics damping friction>; <mimic>."""
+    jtype = jel.get('type', '')
+    axis = jel.find('axis')
+    kw = {}
+    lel = jel.find('limit')
+    if lel is not None:
+        kw['effort'] = _float_attr(lel, 'effort', what + ' limit')
+        kw['velocity'] = _float_attr(lel, 'velocity', what + ' limit')
+        if jtype in ('revolute', 'prismatic'):
+            kw['lower'] = _float_attr(lel, 'lower', what + ' limit', default=0.0)
+            kw['upper'] = _float_attr(lel, 'upper', what + ' limit', default=0.0)
+    elif jtype in ('revolute', 'prismatic'):
+        raise ModelError('%s is %s but has no <limit> (URDF requires one with effort and '
+                         'velocity)' % (what, jtype))
+    dyn = jel.find('dynamics')
+    if dyn is not None:
+        kw['damping'] = _float_attr(dyn, 'damping', what + ' dynamics', default=0.0)
+        kw['friction'] = _float_attr(dyn, 'friction', what + ' dynamics', default=0.0)
+    mel = jel.find('mimic')
+    if mel is not None:
+        if not mel.get('joint'):
+            raise ModelError('%s <mimic> names no joint' % what)
+        kw['mimic'] = (mel.get('joint'),
+                       _float_attr(mel, 'multiplier', what + ' mimic', default=1.0),
+                       _float_attr(mel, 'offset', what + ' mimic', default=0.0))
+    return Joint(jname, jtype, parent, child, parse_pose_attrs(jel.find('origin'), what),
+                 _floats(axis.get('xyz'), 3, what + ' axis') if axis is not None
+                 else (1.0, 0.0, 0.0), **kw)
 
 
 def _gazebo_extension(gel, model):
@@ -222,6 +262,10 @@ def _gazebo_extension(gel, model):
         if ref not in model.links:
             # joints may be referenced too (Gazebo allows it); anything else is an error
             if ref in [j.name for j in model.joints]:
+                joint = model.joint(ref)
+                for child in gel:
+                    if isinstance(child.tag, str) and _local(child.tag) == 'preserveFixedJoint':
+                        joint.preserve = _bool(child.text)
                 return
             raise ModelError('<gazebo reference="%s"> names no link of model %r (links: %s)'
                              % (ref, model.name, ', '.join(model.links)))

@@ -508,6 +508,7 @@ class World(object):
         with self.lock:
             for name, pose in self._initial.items():
                 self.set_state(name, pose.copy())
+                self.physics.reset_joints(name)    # joints to their spawn values, at rest
             if time:
                 self.steps = 0
                 self.sim_time = 0.0

@@ -270,17 +270,23 @@ def lump_model(model):
         raise ModelError('a model needs a non-empty name, got %r' % (model.name,))
     what = 'model %r' % model.name
     model.validate()
-    root_pose = check_pose(model.pose, what + ' pose')
-    del root_pose
-    offsets = model.link_poses()
+    check_pose(model.pose, what + ' pose')
     for j in model.joints:
-        if j.type != 'fixed':
+        if j.type != 'fixed' and not model.static:
             log.warning('%s: joint %r (%s) is simulated as fixed: every link of a model is '
                         'lumped into one rigid body', what, j.name, j.type)
+    return lump_links(model, model.link_poses(), model.static)
+
+
+def lump_links(model, offsets, static, require_mass=True, name=None):
+    """One BodySpec of the links in ``offsets`` ({link name: pose in the body's reference
+    frame}); ``require_mass`` False returns None for links without any mass."""
+    what = 'model %r' % model.name
     shapes = []
     masses, centres, tensors = [], [], []
     gravity_flags = []
-    for lname, link in model.links.items():
+    for lname in offsets:
+        link = model.links[lname]
         lpose = offsets[lname]
         gravity_flags.append(bool(link.gravity))
         for c in link.collisions:
@@ -289,7 +295,7 @@ def lump_model(model):
             cpose = lpose * check_pose(c.origin, '%s link %r collision origin' % (what, lname))
             mesh = None
             if g.kind == 'plane':
-                if not model.static:
+                if not static:
                     raise ModelError('%s: link %r has a plane collision, which only a static '
                                      'model may have' % (what, lname))
                 n = np.asarray(g.normal, dtype=float)
@@ -303,7 +309,7 @@ def lump_model(model):
                 except ModelError as e:
                     raise ModelError('%s link %r: %s' % (what, lname, e))
             shapes.append(Shape(g, cpose, mesh, lname, c.name))
-        if model.static or link.inertial is None:
+        if static or link.inertial is None:
             continue
         ine = link.inertial
         m = float(ine.mass)
@@ -321,9 +327,12 @@ def lump_model(model):
         masses.append(m)
         centres.append(ipose.p)
         tensors.append(r.dot(t).dot(r.T))
-    if model.static:
-        return BodySpec(model.name, True, 0.0, Pose(), np.zeros(3), True, shapes, offsets)
+    name = name or model.name
+    if static:
+        return BodySpec(name, True, 0.0, Pose(), np.zeros(3), True, shapes, offsets)
     if not masses:
+        if not require_mass:
+            return None
         raise ModelError('%s is not static but none of its links has an <inertial> with a '
                          'positive mass' % what)
     total = float(sum(masses))
@@ -341,7 +350,7 @@ def lump_model(model):
     if gravity and not all(gravity_flags):
         log.warning('%s: only some links turn gravity off; the lumped body keeps gravity',
                     what)
-    return BodySpec(model.name, False, total, Pose(com, matrix_to_quat(axes)), moments,
+    return BodySpec(name, False, total, Pose(com, matrix_to_quat(axes)), moments,
                     gravity, shapes, offsets)
 
 
@@ -355,6 +364,7 @@ class Record(object):
         self.pose = pose                    # static models: world pose of the root link
         self.com_inv = spec.com.inverse()   # body (COM) frame -> root link frame
         self.native = None                  # engine-specific handles
+        self.art = None                     # articulation.Articulation or None
 
 
 class PhysicsEngine(object):
@@ -380,11 +390,31 @@ class PhysicsEngine(object):
             raise ModelError('expected a sim_world.model.Model, got %r' % (model,))
         if model.name in self._models:
             raise ModelError('a model named %r already exists' % model.name)
-        spec = lump_model(model)
+        art = None
+        if not model.static:
+            if not isinstance(model.name, str) or not model.name:
+                raise ModelError('a model needs a non-empty name, got %r' % (model.name,))
+            model.validate()
+            from .articulation import build_articulation
+            art = build_articulation(model)
+        spec = lump_model(model) if art is None else art.groups[0].spec
         pose = check_pose(model.pose, 'model %r pose' % model.name)
         rec = Record(spec, pose)
-        self._add(rec, pose)
-        self._models[model.name] = rec
+        rec.name = model.name
+        rec.art = art
+        if art is not None:
+            from .articulation import check_positions
+            init = check_positions(art, model.name, dict(
+                (j.name, j.initial) for j in model.joints if j.name in art.joints
+                and j.movable and j.initial))
+            self._add_articulated(rec, pose)
+            self._models[model.name] = rec
+            if init:
+                self.set_joint_positions(model.name, init)
+            rec.initial_positions = init
+        else:
+            self._add(rec, pose)
+            self._models[model.name] = rec
         return rec
 
     def remove_model(self, name):
@@ -517,16 +547,164 @@ class PhysicsEngine(object):
 
     def link_poses(self, name):
         rec = self._get(name)
+        if rec.art is not None:
+            frames = [self._group_pose(rec, gi) * g.com_inv
+                      for gi, g in enumerate(rec.art.groups)]
+            return dict((ln, frames[gi] * off)
+                        for ln, (gi, off) in rec.art.link_group.items())
         root = self.model_pose(name)
         return dict((ln, root * off) for ln, off in rec.spec.link_offsets.items())
 
     def link_pose(self, name, link):
         """World pose of one link (cheaper than link_poses when one is needed)."""
         rec = self._get(name)
+        if rec.art is not None:
+            entry = rec.art.link_group.get(link)
+            if entry is None:
+                raise KeyError('model %r has no link %r' % (name, link))
+            gi, off = entry
+            return self._group_pose(rec, gi) * rec.art.groups[gi].com_inv * off
         off = rec.spec.link_offsets.get(link)
         if off is None:
             raise KeyError('model %r has no link %r' % (name, link))
         return self.model_pose(name) * off
+
+    # ---- joints (articulated models; sim_world.physics.articulation) -----------------------
+    def _art(self, name):
+        rec = self._get(name)
+        if rec.art is None:
+            raise KeyError('model %r has no joints' % (name,))
+        return rec
+
+    def _joint_of(self, name, joint):
+        rec = self._get(name)
+        js = rec.art.joints.get(joint) if rec.art is not None else None
+        if js is None:
+            raise KeyError('model %r has no joint %r' % (name, joint))
+        return rec, js
+
+    def joint_names(self, name):
+        """Names of the model's simulated joints (movable and preserved fixed), in the
+        model's order; [] for a one-body model."""
+        rec = self._get(name)
+        return [] if rec.art is None else list(rec.art.order)
+
+    def joint(self, name, joint):
+        """The sim_world.model.Joint of a simulated joint (KeyError naming it)."""
+        return self._joint_of(name, joint)[1].joint
+
+    def joint_state(self, name, joint):
+        """(position, velocity) of a joint: rad, rad/s (m, m/s for prismatic); fixed: 0."""
+        rec, js = self._joint_of(name, joint)
+        if not js.movable:
+            return 0.0, 0.0
+        return self._joint_pos_vel(rec, js)
+
+    def joint_states(self, name):
+        """{joint: (position, velocity)} of every simulated joint."""
+        return dict((jn, self.joint_state(name, jn)) for jn in self.joint_names(name))
+
+    def set_joint_positions(self, name, positions):
+        """Move joints to ``positions`` ({joint: value}; the others keep theirs), every
+        joint velocity and the links' twists zero (Gazebo's set_model_configuration; the
+        root link stays where it is). KeyError / ValueError naming a bad joint or value."""
+        from .articulation import check_positions
+        rec = self._art(name)
+        positions = check_positions(rec.art, name, positions)
+        full = dict((jn, self._joint_pos_vel(rec, js)[0])
+                    for jn, js in rec.art.joints.items() if js.movable)
+        full.update(positions)
+        self.pose_version += 1
+        self._set_joint_positions(rec, full)
+
+    def set_joint_velocity(self, name, joint, velocity):
+        """Give a movable joint a velocity (rad/s or m/s) relative to its parent, its
+        position and the other joints' velocities unchanged."""
+        rec, js = self._joint_of(name, joint)
+        v = float(velocity)
+        if not js.movable or not math.isfinite(v):
+            raise ValueError('joint %r of model %r: cannot set velocity %r'
+                             % (joint, name, velocity))
+        self._set_joint_velocity(rec, js, v - self._joint_pos_vel(rec, js)[1])
+
+    def apply_joint_effort(self, name, joint, effort, steps=None, key=None):
+        """An effort (N m or N) on a movable joint during the next ``steps`` steps (None:
+        until cleared); the same ``key`` replaces, different keys add up. Each step the sum
+        goes through Gazebo's CheckAndTruncateForce (velocity and effort limits)."""
+        rec, js = self._joint_of(name, joint)
+        if not js.movable:
+            raise KeyError('joint %r of model %r is fixed' % (joint, name))
+        e = float(effort)
+        if not math.isfinite(e):
+            raise ValueError('effort on joint %r of model %r is not finite: %r'
+                             % (joint, name, effort))
+        if steps is not None:
+            steps = int(steps)
+            if steps < 1:
+                return
+        if key is None:
+            self._wrench_seq += 1
+            key = ('_once', self._wrench_seq)
+        js.efforts[key] = [e, steps]
+        rec.art.refresh()
+
+    def clear_joint_efforts(self, name, joint=None, key=None):
+        rec = self._get(name)
+        if rec.art is None:
+            return
+        for jn, js in rec.art.joints.items():
+            if joint is None or jn == joint:
+                if key is None:
+                    js.efforts.clear()
+                else:
+                    js.efforts.pop(key, None)
+        rec.art.refresh()
+
+    def set_joint_dynamics(self, name, joint, damping=None, friction=None):
+        """Change a joint's viscous damping and Coulomb friction (>= 0, finite)."""
+        rec, js = self._joint_of(name, joint)
+        for what, v in (('damping', damping), ('friction', friction)):
+            if v is not None and not (math.isfinite(float(v)) and 0 <= float(v) <= 1e6):
+                raise ValueError('%s of joint %r of model %r must be in [0, 1e6], got %r'
+                                 % (what, joint, name, v))
+        if damping is not None:
+            js.damping = float(damping)
+        if friction is not None:
+            js.friction = float(friction)
+            self._apply_friction(rec, js)
+        rec.art.refresh()
+
+    def _joint_step(self):
+        """Before a step: applied efforts (truncated as Gazebo does) and viscous damping."""
+        from .articulation import truncate_effort
+        for rec in self._models.values():
+            art = rec.art
+            if art is None or not art.needs_step:
+                continue
+            for js in art.joints.values():
+                if not js.movable or not (js.efforts or js.damping > 0):
+                    continue
+                _, v = self._joint_pos_vel(rec, js)
+                j = js.joint
+                e = truncate_effort(js.applied(), v, j.effort, j.velocity) if js.efforts \
+                    else 0.0
+                e -= js.damping * v
+                if e:
+                    self._joint_force(rec, js, e)
+            art.refresh()
+
+    def _reset_joints(self, rec):
+        """Joints back to their spawn positions with zero velocity (reset_world)."""
+        init = dict((jn, 0.0) for jn, js in rec.art.joints.items() if js.movable)
+        init.update(getattr(rec, 'initial_positions', {}) or {})
+        self.clear_joint_efforts(rec.name)
+        self._set_joint_positions(rec, init)
+
+    def reset_joints(self, name):
+        rec = self._get(name)
+        if rec.art is not None:
+            self.pose_version += 1
+            self._reset_joints(rec)
 
     def set_gravity(self, g):
         self.gravity = check_vector(g, 'gravity')
@@ -572,6 +750,10 @@ class PhysicsEngine(object):
 
     def _check_link(self, name, link):
         rec = self._get(name)
+        if rec.art is not None:
+            if link is not None and link not in rec.art.link_group:
+                raise KeyError('model %r has no link %r' % (name, link))
+            return rec
         if link is not None and link not in rec.spec.link_offsets:
             raise KeyError('model %r has no link %r' % (name, link))
         return rec

@@ -23,11 +23,18 @@ import tempfile
 import numpy as np
 import pybullet as p
 
+from .articulation import forward
 from .base import FRICTION, Contact, PhysicsEngine
 from ..model import ModelError
 from ..transforms import Pose
 
 __all__ = ['BulletEngine']
+
+
+def _gravity(rec):
+    if rec.art is None:
+        return rec.spec.gravity
+    return any(g.spec.gravity for g in rec.art.groups if not g.anchor)
 
 
 def _xyzw(q):
@@ -50,6 +57,7 @@ class BulletEngine(PhysicsEngine):
         self._forced = []            # [(body id, [fx, fy, fz])] applied before each step
         self._contacts_valid = False
         self._tmpdir = None
+        self._n_art = 0
 
     # ---- building ----------------------------------------------------------------------
     def _hull_obj(self, verts):
@@ -160,7 +168,119 @@ class BulletEngine(PhysicsEngine):
         self._contacts_valid = False
         self._balance_gravity(extra=rec)
 
+    # ---- articulated models: one multibody (Featherstone), sim_world.physics.articulation ----
+    def _shape_of(self, shapes, poses):
+        if not shapes:
+            return -1
+        if len(shapes) == 1:
+            return self._single_shape(shapes[0], poses[0], False)
+        return self._compound(shapes, poses)
+
+    def _add_articulated(self, rec, pose):
+        art, c = rec.art, self._c
+        g0 = art.groups[0]
+        base_sid = self._shape_of(g0.spec.shapes, [g0.com_inv * sh.pose for sh in g0.spec.shapes])
+        fixed = art.welded
+        masses, sids, poss, orns, ipos, iorn, parents, types, axes = ([] for _ in range(9))
+        for gi, g in enumerate(art.groups[1:], 1):
+            spec = g.spec
+            parent = art.groups[g.parent]
+            pframe = parent.spec.com if g.parent == 0 else parent.frame
+            rel = pframe.inverse() * g.origin * g.frame
+            inertial = g.frame.inverse() * spec.com
+            masses.append(float(spec.mass))
+            sids.append(self._shape_of(spec.shapes, [g.frame.inverse() * sh.pose
+                                                     for sh in spec.shapes]))
+            poss.append([float(x) for x in rel.p])
+            orns.append(_xyzw(rel.q))
+            ipos.append([float(x) for x in inertial.p])
+            iorn.append(_xyzw(inertial.q))
+            parents.append(g.parent)
+            jt = g.joint.type
+            types.append(p.JOINT_PRISMATIC if jt == 'prismatic' else
+                         p.JOINT_FIXED if jt == 'fixed' else p.JOINT_REVOLUTE)
+            axes.append([float(x) for x in g.joint.axis])
+        flags = p.URDF_USE_SELF_COLLISION if sum(
+            1 for g in art.groups if getattr(g, 'self_collide', False)) >= 2 else 0
+        bpose = pose * g0.spec.com
+        bid = p.createMultiBody(
+            0.0 if fixed else float(g0.spec.mass), base_sid, -1, [float(x) for x in bpose.p],
+            _xyzw(bpose.q), linkMasses=masses, linkCollisionShapeIndices=sids,
+            linkVisualShapeIndices=[-1] * len(masses), linkPositions=poss,
+            linkOrientations=orns, linkInertialFramePositions=ipos,
+            linkInertialFrameOrientations=iorn, linkParentIndices=parents,
+            linkJointTypes=types, linkJointAxis=axes, useMaximalCoordinates=False,
+            flags=flags, physicsClientId=c)
+        if bid < 0:
+            raise ModelError('model %r: Bullet refused the articulated body' % rec.name)
+        if not fixed:
+            self._dynamics(bid, mass=float(g0.spec.mass),
+                           localInertiaDiagonal=[float(x) for x in g0.spec.inertia],
+                           linearDamping=0.0, angularDamping=0.0,
+                           activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        else:
+            self._dynamics(bid, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        for gi, g in enumerate(art.groups[1:], 1):
+            li = gi - 1
+            j = g.joint
+            kw = {}
+            if j.movable and j.lower is not None and j.upper is not None:
+                kw = dict(jointLowerLimit=j.lower, jointUpperLimit=j.upper,
+                          jointLimitForce=1e12)
+            p.changeDynamics(bid, li, mass=float(g.spec.mass),
+                             localInertiaDiagonal=[float(x) for x in g.spec.inertia],
+                             linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                             lateralFriction=FRICTION, restitution=0.0, spinningFriction=0.0,
+                             rollingFriction=0.0, physicsClientId=c, **kw)
+            g.native = li
+        g0.native = -1
+        rec.native = {'bodies': [(bid, None)], 'body': bid}
+        for js in art.joints.values():
+            if js.movable:
+                self._apply_friction(rec, js)
+        self._n_art += 1
+        self._contacts_valid = False
+        self._balance_gravity(extra=rec)
+
+    def _apply_friction(self, rec, js):
+        # the default velocity motor of every joint, with the joint's friction as its force:
+        # zero friction switches it off
+        p.setJointMotorControl2(rec.native['body'], rec.art.groups[js.group].native,
+                                p.VELOCITY_CONTROL, targetVelocity=0.0,
+                                force=float(js.friction), physicsClientId=self._c)
+
+    def _group_pose(self, rec, gi):
+        if gi == 0:
+            return self._body_pose(rec)
+        st = p.getLinkState(rec.native['body'], gi - 1, physicsClientId=self._c)
+        return Pose(st[0], st[1], normalize=False)
+
+    def _joint_pos_vel(self, rec, js):
+        st = p.getJointState(rec.native['body'], rec.art.groups[js.group].native,
+                             physicsClientId=self._c)
+        return st[0], st[1]
+
+    def _set_joint_velocity(self, rec, js, dv):
+        bid, li = rec.native['body'], rec.art.groups[js.group].native
+        q, v = p.getJointState(bid, li, physicsClientId=self._c)[:2]
+        p.resetJointState(bid, li, q, v + dv, physicsClientId=self._c)
+
+    def _joint_force(self, rec, js, effort):
+        p.setJointMotorControl2(rec.native['body'], rec.art.groups[js.group].native,
+                                p.TORQUE_CONTROL, force=float(effort), physicsClientId=self._c)
+
+    def _set_joint_positions(self, rec, positions):
+        bid, c = rec.native['body'], self._c
+        for jn, js in rec.art.joints.items():
+            if js.movable:
+                p.resetJointState(bid, rec.art.groups[js.group].native,
+                                  float(positions.get(jn, 0.0)), 0.0, physicsClientId=c)
+        p.resetBaseVelocity(bid, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
+        self._contacts_valid = False
+
     def _remove(self, rec):
+        if rec.art is not None:
+            self._n_art -= 1
         for bid, _ in rec.native['bodies']:
             p.removeBody(bid, physicsClientId=self._c)
         rec.native = None
@@ -207,15 +327,24 @@ class BulletEngine(PhysicsEngine):
         if extra is not None and extra not in recs:
             recs.append(extra)
         moving = [r for r in recs if not r.static and r.native is not None]
-        floating = [r for r in moving if not r.spec.gravity]
-        falling = [r for r in moving if r.spec.gravity]
+        floating = [r for r in moving if not _gravity(r)]
+        falling = [r for r in moving if _gravity(r)]
         g = [float(x) for x in self.gravity]
         if len(floating) > len(falling):
             world_g, forced, sign = [0.0, 0.0, 0.0], falling, 1.0
         else:
             world_g, forced, sign = g, floating, -1.0
         p.setGravity(*world_g, physicsClientId=self._c)
-        self._forced = [(r.native['body'], [sign * r.spec.mass * x for x in g]) for r in forced]
+        out = []
+        for r in forced:
+            if r.art is None:
+                out.append((r.native['body'], -1, [sign * r.spec.mass * x for x in g]))
+                continue
+            for gi, grp in enumerate(r.art.groups):
+                if grp.anchor or (gi == 0 and r.art.welded):
+                    continue
+                out.append((r.native['body'], gi - 1, [sign * grp.spec.mass * x for x in g]))
+        self._forced = out
 
     # ---- stepping ------------------------------------------------------------------------
     def step(self, n=1):
@@ -223,12 +352,16 @@ class BulletEngine(PhysicsEngine):
         step = p.stepSimulation
         forces = self._forced
         if forces or self._wrenches:
+            # (joint efforts and damping of articulated models: _joint_step before each step)
             getpose, force, frame = p.getBasePositionAndOrientation, p.applyExternalForce, \
                 p.WORLD_FRAME
             for _ in range(int(n)):
-                for bid, f in forces:
-                    force(bid, -1, f, getpose(bid, physicsClientId=c)[0], frame,
+                for bid, li, f in forces:
+                    force(bid, li, f, getpose(bid, physicsClientId=c)[0] if li < 0 else
+                          p.getLinkState(bid, li, physicsClientId=c)[0], frame,
                           physicsClientId=c)
+                if self._n_art:
+                    self._joint_step()
                 if self._wrenches:
                     for rec, f, t in self._take_wrenches():
                         bid = rec.native['body']    # native frame = centre of mass
@@ -237,6 +370,10 @@ class BulletEngine(PhysicsEngine):
                         if np.any(t):
                             p.applyExternalTorque(bid, -1, [float(x) for x in t], frame,
                                                   physicsClientId=c)
+                step(physicsClientId=c)
+        elif self._n_art:
+            for _ in range(int(n)):
+                self._joint_step()
                 step(physicsClientId=c)
         else:
             for _ in range(int(n)):

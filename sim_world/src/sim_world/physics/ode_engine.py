@@ -26,12 +26,22 @@ changes nothing measurable for the office's single bodies on boxes).
 """
 import ctypes
 import ctypes.util
+import logging
+import math
 
 import numpy as np
 import ode
 
+from .articulation import forward
 from .base import FRICTION, Contact, PhysicsEngine, mesh_boxes
 from ..transforms import Pose
+
+log = logging.getLogger('sim_world.physics')
+TWO_PI = 2.0 * math.pi
+#: dParamFMax of the libode Debian 12 ships (0.16): since ODE 0.13 dParamLoVel and
+#: dParamHiVel come before it, so pyode's ode.ParamFMax (3) is really dParamLoVel and
+#: setting it does nothing to the motor (found by test_joints' friction test)
+PARAM_FMAX = 5
 
 __all__ = ['OdeEngine']
 
@@ -86,6 +96,175 @@ class OdeEngine(PhysicsEngine):
         self._contact_mode = ode.ContactApprox1
         self._mesh_boxes = {}        # id(mesh arrays) -> (mesh arrays, [(centre, size)])
         self._rand_state = 0         # this world's libode random state (see _ode_rand)
+        self._n_art = 0              # articulated models (joint efforts, damping, unwrapping)
+        self._geom_group = {}        # geom of an articulated model -> self-collide flag
+        self._hinges = []            # [JointState] of hinges whose angle is unwrapped
+
+    # ---- articulated models (sim_world.physics.articulation) -------------------------------
+    def _add_articulated(self, rec, pose):
+        art = rec.art
+        frames = forward(art, pose, {})
+        geoms, bodies, weld = [], [], None
+        world = self._world
+        for gi, g in enumerate(art.groups):
+            spec = g.spec
+            body = ode.Body(world)
+            m = ode.Mass()
+            if g.anchor:
+                total = max(1.0, sum(x.spec.mass for x in art.groups))
+                m.setParameters(total, 0.0, 0.0, 0.0, total * 0.1, total * 0.1, total * 0.1,
+                                0.0, 0.0, 0.0)
+                body.setGravityMode(False)
+            else:
+                i = spec.inertia
+                m.setParameters(spec.mass, 0.0, 0.0, 0.0, float(i[0]), float(i[1]),
+                                float(i[2]), 0.0, 0.0, 0.0)
+                body.setGravityMode(bool(spec.gravity))
+            body.setMass(m)
+            bpose = frames[gi] * spec.com
+            body.setPosition(tuple(bpose.p))
+            body.setQuaternion(_wxyz(bpose.q))
+            selfc = g.self_collide
+            for shape in spec.shapes:
+                for geom, sub in self._make_geoms(shape, self._dyn_space):
+                    geom.setBody(body)
+                    off = g.com_inv * shape.pose
+                    if sub is not None:
+                        off = off * sub
+                    geom.setOffsetPosition(tuple(off.p))
+                    geom.setOffsetQuaternion(_wxyz(off.q))
+                    geoms.append((geom, shape, sub))
+                    self._geom_group[geom] = selfc
+            g.native = body
+            bodies.append(body)
+        joints = []
+        for gi, g in enumerate(art.groups):
+            body = g.native
+            if g.parent is None:
+                if art.welded:
+                    weld = ode.FixedJoint(world)
+                    weld.attach(body, None)
+                    weld.setFixed()
+                    joints.append(weld)
+                continue
+            j, parent = g.joint, art.groups[g.parent].native
+            jf = frames[gi] * g.frame
+            js = art.joints[j.name]
+            if j.type in ('revolute', 'continuous'):
+                oj = ode.HingeJoint(world)
+                oj.attach(body, parent)
+                oj.setAnchor(tuple(float(x) for x in jf.p))
+                oj.setAxis(tuple(float(x) for x in jf.rotate(j.axis)))
+                if j.lower is not None and j.upper is not None:
+                    if -math.pi <= j.lower and j.upper <= math.pi:
+                        oj.setParam(ode.ParamLoStop, j.lower)
+                        oj.setParam(ode.ParamHiStop, j.upper)
+                    else:
+                        log.warning('model %r joint %r: limits [%g, %g] reach beyond +-pi, '
+                                    'where ODE hinge stops do not work: not enforced in ODE',
+                                    rec.name, j.name, j.lower, j.upper)
+                self._hinges.append(js)
+            elif j.type == 'prismatic':
+                oj = ode.SliderJoint(world)
+                oj.attach(body, parent)
+                oj.setAxis(tuple(float(x) for x in jf.rotate(j.axis)))
+                if j.lower is not None and j.upper is not None:
+                    oj.setParam(ode.ParamLoStop, j.lower)
+                    oj.setParam(ode.ParamHiStop, j.upper)
+            else:
+                oj = ode.FixedJoint(world)
+                oj.attach(body, parent)
+                oj.setFixed()
+            js.native = oj
+            joints.append(oj)
+            if js.movable:
+                self._apply_friction(rec, js)
+        rec.native = {'body': bodies[0], 'bodies': bodies, 'geoms': geoms, 'joints': joints,
+                      'weld': weld}
+        for geom, _, _ in geoms:
+            self._geom_model[geom] = rec.name
+            self._seq_next += 1
+            self._geom_seq[geom] = self._seq_next
+        self._n_art += 1
+        self._dirty = True
+
+    def _apply_friction(self, rec, js):
+        oj = js.native
+        oj.setParam(ode.ParamVel, 0.0)
+        oj.setParam(PARAM_FMAX, float(js.friction))
+
+    def _group_pose(self, rec, gi):
+        b = rec.art.groups[gi].native
+        w, x, y, z = b.getQuaternion()
+        return Pose(b.getPosition(), (x, y, z, w), normalize=False)
+
+    @staticmethod
+    def _unwrap(js, raw):
+        d = raw - js.last_raw
+        if d > math.pi:
+            js.turns -= 1
+        elif d < -math.pi:
+            js.turns += 1
+        js.last_raw = raw
+        return raw + TWO_PI * js.turns
+
+    def _joint_pos_vel(self, rec, js):
+        oj = js.native
+        if js.joint.type == 'prismatic':
+            return oj.getPosition(), oj.getPositionRate()
+        return self._unwrap(js, oj.getAngle()), oj.getAngleRate()
+
+    def _set_joint_velocity(self, rec, js, dv):
+        """Add ``dv`` to a joint's velocity: the child group and its subtree get the
+        rigid velocity field of that joint motion."""
+        art = rec.art
+        g = art.groups[js.group]
+        frame = self._group_pose(rec, js.group) * g.com_inv * g.frame
+        axis = frame.rotate(js.joint.axis)
+        anchor = frame.p
+        sub = {js.group}
+        for gi, grp in enumerate(art.groups):
+            if grp.parent in sub:
+                sub.add(gi)
+        for gi in sorted(sub):
+            b = art.groups[gi].native
+            lin, ang = np.array(b.getLinearVel()), np.array(b.getAngularVel())
+            if js.joint.type == 'prismatic':
+                lin = lin + axis * dv
+            else:
+                w = axis * dv
+                ang = ang + w
+                lin = lin + np.cross(w, np.array(b.getPosition()) - anchor)
+            b.setLinearVel(tuple(float(x) for x in lin))
+            b.setAngularVel(tuple(float(x) for x in ang))
+            b.enable()
+
+    def _joint_force(self, rec, js, effort):
+        if js.joint.type == 'prismatic':
+            js.native.addForce(float(effort))
+        else:
+            js.native.addTorque(float(effort))
+
+    def _set_joint_positions(self, rec, positions):
+        art = rec.art
+        root = self._group_pose(rec, 0) * art.groups[0].com_inv
+        frames = forward(art, root, positions)
+        for gi, g in enumerate(art.groups):
+            b = g.native
+            bp = frames[gi] * g.spec.com
+            b.setPosition(tuple(bp.p))
+            b.setQuaternion(_wxyz(bp.q))
+            b.setLinearVel((0.0, 0.0, 0.0))
+            b.setAngularVel((0.0, 0.0, 0.0))
+            b.enable()
+        if rec.native['weld'] is not None:
+            rec.native['weld'].setFixed()
+        for jn, js in art.joints.items():
+            if js.movable and js.joint.type != 'prismatic':
+                raw = js.native.getAngle()
+                js.turns = int(round((positions.get(jn, raw) - raw) / TWO_PI))
+                js.last_raw = raw
+        self._dirty = True
 
     # ---- building ----------------------------------------------------------------------
     def _make_geoms(self, shape, space):
@@ -161,9 +340,16 @@ class OdeEngine(PhysicsEngine):
                     space.remove(geom)
             if not rec.static:
                 geom.setBody(None)
-        body = rec.native.get('body')
-        if body is not None:
-            body.disable()
+        for j in rec.native.get('joints', ()):
+            j.attach(None, None)
+        if rec.art is not None:
+            self._n_art -= 1
+            self._hinges = [js for js in self._hinges if js not in rec.art.joints.values()]
+            for geom, _, _ in rec.native['geoms']:
+                self._geom_group.pop(geom, None)
+        for body in rec.native.get('bodies', [rec.native.get('body')]):
+            if body is not None:
+                body.disable()
         rec.native = None
         self._touching.discard(rec.name)
         self._dirty = True
@@ -192,6 +378,18 @@ class OdeEngine(PhysicsEngine):
         return Pose(b.getPosition(), (x, y, z, w), normalize=False)
 
     def _set_body_pose(self, rec, pose):
+        if rec.art is not None:
+            delta = pose * self._body_pose(rec).inverse()
+            for b in rec.native['bodies']:
+                w, x, y, z = b.getQuaternion()
+                bp = delta * Pose(b.getPosition(), (x, y, z, w), normalize=False)
+                b.setPosition(tuple(bp.p))
+                b.setQuaternion(_wxyz(bp.q))
+                b.enable()
+            if rec.native['weld'] is not None:
+                rec.native['weld'].setFixed()
+            self._dirty = True
+            return
         b = rec.native['body']
         b.setPosition(tuple(pose.p))
         b.setQuaternion(_wxyz(pose.q))
@@ -203,6 +401,14 @@ class OdeEngine(PhysicsEngine):
         return np.array(b.getLinearVel()), np.array(b.getAngularVel())
 
     def _set_body_twist(self, rec, lin, ang):
+        if rec.art is not None:
+            c0 = np.array(rec.native['body'].getPosition())
+            for b in rec.native['bodies']:
+                r = np.array(b.getPosition()) - c0
+                b.setLinearVel(tuple(float(x) for x in lin + np.cross(ang, r)))
+                b.setAngularVel(tuple(float(x) for x in ang))
+                b.enable()
+            return
         b = rec.native['body']
         b.setLinearVel(tuple(float(x) for x in lin))
         b.setAngularVel(tuple(float(x) for x in ang))
@@ -217,6 +423,15 @@ class OdeEngine(PhysicsEngine):
         # collect them and make the contact joints in creation order (see _join), so the
         # same world gives the same solver input, bit for bit, in every run
         seq = self._geom_seq
+        if g1 in self._geom_group and g2 in self._geom_group:
+            gm = self._geom_model
+            if gm.get(g1) == gm.get(g2):
+                # links of one model: only when both groups self-collide, never across a joint
+                if not (self._geom_group[g1] and self._geom_group[g2]):
+                    return
+                b1, b2 = g1.getBody(), g2.getBody()
+                if b1 is b2 or ode.areConnected(b1, b2):
+                    return
         if seq.get(g1, 0) > seq.get(g2, 0):
             g1, g2 = g2, g1
         contacts = ode.collide(g1, g2)
@@ -277,7 +492,13 @@ class OdeEngine(PhysicsEngine):
                     b.addForce(tuple(float(x) for x in f))
                     b.addTorque(tuple(float(x) for x in t))
                     b.enable()
+            if self._n_art:
+                self._joint_step()
             world.quickStep(dt)
+            if self._hinges:
+                unwrap = self._unwrap
+                for js in self._hinges:
+                    unwrap(js, js.native.getAngle())
             self._collide()
         if _RAND_GET is not None:
             self._rand_state = _RAND_GET()

@@ -314,3 +314,25 @@ def test_bad_positions_are_refused_by_name(engine):
         engine.apply_joint_effort('pend', 'hinge', float('inf'))
     engine.step(10)
     assert all(np.all(np.isfinite(p.p)) for p in engine.link_poses('pend').values())
+
+
+@pytest.mark.parametrize('physics', ENGINES)
+def test_world_sensor_link_follows_and_reset_restores_joints(physics):
+    """Through sim_world.world.World: a sensor's link state (entity_state) follows the
+    moving link, and reset_world puts the joint back at its spawn value, at rest."""
+    from sim_world.world import World
+    w = World(physics=physics)
+    try:
+        m = pendulum()
+        m.joint('hinge').initial = 0.4
+        w.add_model(m)
+        w.step(300)
+        q, _ = w.physics.joint_state('pend', 'hinge')
+        pose, lin, ang = w.entity_state('pend::rod')
+        com = pose * np.array([0.0, 0.0, -L])
+        assert com == pytest.approx([-L * math.sin(q), 0.0, 2.0 - L * math.cos(q)], abs=2e-5)
+        assert ang[1] == pytest.approx(w.physics.joint_state('pend', 'hinge')[1], abs=1e-6)
+        w.reset()
+        assert w.physics.joint_state('pend', 'hinge') == pytest.approx((0.4, 0.0), abs=1e-9)
+    finally:
+        w.shutdown()

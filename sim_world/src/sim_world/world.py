@@ -357,6 +357,8 @@ class World(object):
         if model_name in self._static_poses:
             pose = self.link_pose(model_name, link)
             root, lin, ang = self.model_state(model_name)
+        elif self.physics._get(model_name).art is not None:
+            return self.physics.link_state(model_name, link)   # a link with a body of its own
         else:
             off = self.physics._get(model_name).spec.link_offsets.get(link)
             if off is None:

@@ -569,6 +569,23 @@ class PhysicsEngine(object):
             raise KeyError('model %r has no link %r' % (name, link))
         return self.model_pose(name) * off
 
+    def link_state(self, name, link):
+        """(world pose, linear velocity of the link origin, angular velocity) of one link
+        (a link on a moving joint moves with its own body)."""
+        rec = self._check_link(name, link)
+        if link is None:
+            raise KeyError('model %r: no link given' % name)
+        if rec.art is None:
+            root, lin, ang = self.model_state(name)
+            pose = root * rec.spec.link_offsets[link]
+            return pose, lin + np.cross(ang, pose.p - root.p), ang
+        gi, off = rec.art.link_group[link]
+        body = self._group_pose(rec, gi)
+        pose = body * rec.art.groups[gi].com_inv * off
+        v_com, w = self._group_twist(rec, gi)
+        w = np.asarray(w, float)
+        return pose, np.asarray(v_com, float) + np.cross(w, pose.p - body.p), w
+
     # ---- joints (articulated models; sim_world.physics.articulation) -----------------------
     def _art(self, name):
         rec = self._get(name)

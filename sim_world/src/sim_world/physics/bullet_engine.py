@@ -252,8 +252,18 @@ class BulletEngine(PhysicsEngine):
     def _group_pose(self, rec, gi):
         if gi == 0:
             return self._body_pose(rec)
-        st = p.getLinkState(rec.native['body'], gi - 1, physicsClientId=self._c)
+        # computeForwardKinematics: the cached link transforms lag one step behind the
+        # joint positions
+        st = p.getLinkState(rec.native['body'], gi - 1, computeForwardKinematics=1,
+                            physicsClientId=self._c)
         return Pose(st[0], st[1], normalize=False)
+
+    def _group_twist(self, rec, gi):
+        if gi == 0:
+            return self._body_twist(rec)
+        st = p.getLinkState(rec.native['body'], gi - 1, computeLinkVelocity=1,
+                            computeForwardKinematics=1, physicsClientId=self._c)
+        return np.array(st[6]), np.array(st[7])
 
     def _joint_pos_vel(self, rec, js):
         st = p.getJointState(rec.native['body'], rec.art.groups[js.group].native,

@@ -198,6 +198,10 @@ class OdeEngine(PhysicsEngine):
         w, x, y, z = b.getQuaternion()
         return Pose(b.getPosition(), (x, y, z, w), normalize=False)
 
+    def _group_twist(self, rec, gi):
+        b = rec.art.groups[gi].native
+        return np.array(b.getLinearVel()), np.array(b.getAngularVel())
+
     @staticmethod
     def _unwrap(js, raw):
         d = raw - js.last_raw

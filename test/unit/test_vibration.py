@@ -117,7 +117,7 @@ def test_half_amplitude_gives_half_the_force_and_bad_commands_keep_state(phone, 
 def test_force_controller_applies_until_the_next_message(phone):
     w, vib, imu = phone
     fc = next(p for p in w.plugins['mobile_device'] if isinstance(p, ForceController))
-    assert fc.topic == '/mobile_device/force'
+    assert fc.topic == '/force'        # the description names no namespace (a spawn's gives one)
     m = w.models['mobile_device']
     mass = sum(l.inertial.mass for l in m.links.values() if l.inertial is not None)
     w.step(5)

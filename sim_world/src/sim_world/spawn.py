@@ -7,17 +7,63 @@
 
 A .xacro file is expanded first. Exit status 0 when the world accepted the model, 1 with
 one line saying why otherwise.
+
+``-robot_namespace NS`` (the spawn services' ``robot_namespace``) follows gazebo_ros's rule
+(gazebo_ros_api_plugin's walkChildAddRobotNamespace): every plugin of the model that names no
+``<robotNamespace>`` of its own gets ``<robotNamespace>NS</robotNamespace>``; a plugin's own
+wins (an empty one too: the global namespace). So one description spawned twice, with
+``-robot_namespace /phone2`` the second time, gives two phones side by side. A URDF robot
+spawned in NS publishes its tf frames as ``NS/<link>`` unless the parameter ``/NS/tf_prefix``
+says otherwise (ROS 1's tf_prefix; office.launch sets ``/mobile_device/tf_prefix`` to '' so
+the phone keeps its plain frame names). A model whose plugins would take a topic or service
+of another model's is refused (sim_world.world.World.add_model), naming both and the name.
 """
 import argparse
 import sys
 
-__all__ = ['parse_args', 'main', 'spawn_xml', 'one_line']
+__all__ = ['parse_args', 'main', 'spawn_xml', 'one_line', 'fill_robot_namespace']
 
 
 def one_line(text):
     """``text`` with every unprintable character (newlines in a name...) escaped: a status
     message and its log line stay one line whatever the request held."""
     return ''.join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def fill_robot_namespace(model, namespace):
+    """gazebo_ros's spawn rule: each plugin of ``model`` whose element has no
+    ``<robotNamespace>`` child gets one holding ``namespace``; a plugin's own stays (an empty
+    own one becomes '/', the global namespace it means, so that the model's namespace is not
+    taken for it). Nothing happens for an empty ``namespace``. Returns how many were filled."""
+    import xml.etree.ElementTree as ET
+    if not (namespace or '').strip('/'):
+        return 0
+    filled = 0
+    for spec in model.plugins:
+        el = spec.element
+        if el is None:
+            continue
+        own = [c for c in el if isinstance(c.tag, str)
+               and c.tag.rsplit('}', 1)[-1].split(':')[-1] == 'robotNamespace']
+        for c in own:
+            if not (c.text or '').strip():
+                c.text = '/'
+        if not own:
+            ET.SubElement(el, 'robotNamespace').text = namespace
+            filled += 1
+    return filled
+
+
+def _tf_prefix(world, namespace):
+    """tf frame prefix of a URDF robot spawned in ``namespace``: the namespace, or the
+    parameter ``/<namespace>/tf_prefix`` where it is set (read only with ROS)."""
+    if not namespace or not world.ros_enabled:
+        return namespace
+    try:
+        import rospy
+        return str(rospy.get_param('/%s/tf_prefix' % namespace, namespace)).strip('/')
+    except Exception:  # noqa: BLE001 - no master: the namespace
+        return namespace
 
 
 def spawn_xml(world, kind, name, xml, robot_namespace='', initial_pose=None,
@@ -49,6 +95,7 @@ def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_
     except InvalidPose as e:
         return False, 'SpawnModel: model %r: bad initial_pose: %s' % (name, e)
     namespace = (robot_namespace or '').strip('/')
+    tf_prefix = _tf_prefix(world, namespace) if kind != 'sdf' else None
     with world.lock:
         if name in world.models:
             return False, 'SpawnModel: a model named %r already exists' % name
@@ -59,7 +106,8 @@ def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_
                 model.robot_namespace = namespace
             else:
                 model = parse_urdf(xml, name=name, robot_namespace=namespace)
-                model.tf_prefix = namespace
+                model.tf_prefix = tf_prefix
+            fill_robot_namespace(model, robot_namespace)
             if reference_frame not in ('', 'world', 'map', '/world', '/map'):
                 frame, _, _ = world.entity_state(reference_frame)
                 initial = frame * initial
@@ -83,7 +131,8 @@ def parse_args(argv):
     for k in ('x', 'y', 'z', 'R', 'P', 'Y'):
         p.add_argument('-' + k, type=float, default=0.0)
     p.add_argument('-reference_frame', default='')
-    p.add_argument('-robot_namespace', default='')
+    p.add_argument('-robot_namespace', default=None,
+                   help="the plugins' ROS namespace (default the node's, as gazebo_ros's)")
     p.add_argument('-timeout', type=float, default=30.0)
     a = p.parse_args(argv)
     if bool(a.file) == bool(a.param):
@@ -125,7 +174,8 @@ def main(argv=None):
     req = SpawnModelRequest()
     req.model_name = a.model
     req.model_xml = xml
-    req.robot_namespace = a.robot_namespace
+    req.robot_namespace = a.robot_namespace if a.robot_namespace is not None \
+        else rospy.get_namespace()
     req.initial_pose = Pose.from_xyz_rpy((a.x, a.y, a.z), (a.R, a.P, a.Y)).to_msg()
     req.reference_frame = a.reference_frame
     res = rospy.ServiceProxy(srv, SpawnModel)(req)

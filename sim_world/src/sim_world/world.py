@@ -62,6 +62,14 @@ class PowerBus(object):
         self._flags.pop(model, None)
 
 
+
+def _clash_text(name, other, ros_name, filename):
+    """The one line refusing model ``name`` whose plugin would take ``ros_name`` of model
+    ``other``'s."""
+    return ('model %r clashes with model %r: both would use %s%s; spawn it in a namespace '
+            'of its own (spawn_model -robot_namespace /%s)'
+            % (name, other, ros_name, ' (plugin %s)' % filename if filename else '', name))
+
 class World(object):
     def __init__(self, physics='ode', step_size=0.001, gravity=(0.0, 0.0, -9.81),
                  ros_enabled=False, logger=None, seed=None):
@@ -151,19 +159,43 @@ class World(object):
                 except Exception as e:  # noqa: BLE001 - a bad mesh must not take the world down
                     self.log.error('model %s: cannot draw it: %s', model.name, e)
             self.plugins[model.name] = []
+            taken = self._ros_names() if self.ros_enabled else {}
             try:
                 for spec in model.plugins:
                     p = plugin_registry.create(spec, model, self, logger=self.log)
                     if p is not None:
                         p.timer.reset(self.sim_time)
                         self.plugins[model.name].append(p)
-            except ModelError:
+                        self._refuse_clash(model, p, taken)
+            except ModelError as e:
                 self.delete_model(model.name)   # its loaded plugins, body and drawing
-                raise
+                # rospy's own refusal of a second service of that name, said the same way
+                n = next((n for n in sorted(taken) if '[%s]' % n in str(e)), None)
+                if n is None:
+                    raise
+                raise ModelError(_clash_text(model.name, taken[n], n, None)) from None
             self.reschedule()
             for cb in self.on_model_added:
                 cb(model)
             return model
+
+    def _ros_names(self):
+        """{resolved topic or service name: model name} of every plugin in the world."""
+        taken = {}
+        for name, plugins in self.plugins.items():
+            for p in plugins:
+                for n in p.ros_names():
+                    taken.setdefault(n, name)
+        return taken
+
+    def _refuse_clash(self, model, plugin, taken):
+        """ModelError when ``plugin`` (of ``model``, being added) took a topic or service of
+        another model's (two phones from one description, neither spawned in a namespace of
+        its own: one IMU topic for both, ``set_device_time`` registered twice)."""
+        for n in sorted(plugin.ros_names()):
+            other = taken.get(n)
+            if other is not None and other != model.name:
+                raise ModelError(_clash_text(model.name, other, n, plugin.spec.filename))
 
     def delete_model(self, name):
         with self.lock:

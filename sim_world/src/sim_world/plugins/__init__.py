@@ -203,6 +203,11 @@ class Plugin(object):
         None (video textures answer; the touch screen maps touches to these pixels)."""
         return None
 
+    def ros_names(self):
+        """The resolved names of the topics this plugin publishes and the services it serves
+        (the world refuses a model whose plugins would take another model's: World.add_model)."""
+        return set()
+
     def reset(self):
         self.timer.reset(self.world.sim_time)
 

@@ -293,6 +293,10 @@ class Device(Plugin):
         self.srvs.append(srv)
         return srv
 
+    def ros_names(self):
+        """Its outputs' topics and its services (Plugin.ros_names)."""
+        return {o.topic for o in self.pubs} | {s.resolved_name for s in self.srvs}
+
     def subscribed(self):
         """Anybody listening to any topic of this device (always True without ROS)."""
         if self.force or not self.ros:

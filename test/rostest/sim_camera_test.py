@@ -164,6 +164,33 @@ class SimCamera(unittest.TestCase):
                 break
         self.assertAlmostEqual(self.infos[-1].K[0], f1, places=3)
 
+    def test_5_faults_through_set_sensor_fault(self):
+        """/gazebo/set_sensor_fault finds the camera by its library name or a topic:
+        drop silences image and camera_info, freeze repeats the last frame with new stamps,
+        noise is refused (no <noise>), none brings it back."""
+        from mobile_device_sim.srv import SetSensorFault
+        rospy.wait_for_service('/gazebo/set_sensor_fault', timeout=30)
+        fault = rospy.ServiceProxy('/gazebo/set_sensor_fault', SetSensorFault)
+        self.frames(1)
+        res = fault(model_name='test_cam', sensor='libgazebo_ros_camera.so', fault='drop')
+        self.assertTrue(res.success, res.status_message)
+        time.sleep(1.0)                           # frames in flight arrive
+        n_img, n_info = len(self.images), len(self.infos)
+        time.sleep(2.0)
+        self.assertEqual((len(self.images), len(self.infos)), (n_img, n_info))
+        res = fault(model_name='test_cam', sensor='/test_cam/camera_info', fault='freeze')
+        self.assertTrue(res.success, res.status_message)
+        imgs = self.frames(4)
+        self.assertEqual(len({bytes(i.data) for i in imgs}), 1)
+        st = [i.header.stamp.to_sec() for i in imgs]
+        self.assertEqual(st, sorted(set(st)))
+        res = fault(model_name='test_cam', sensor='image_raw', fault='noise', value=3.0)
+        self.assertFalse(res.success)
+        self.assertIn('no noise', res.status_message)
+        res = fault(model_name='test_cam', sensor='controller', fault='none')
+        self.assertTrue(res.success, res.status_message)
+        self.frames(2)
+
 
 if __name__ == '__main__':
     rostest.rosrun('mobile_device_sim', 'sim_camera', SimCamera, sys.argv)

@@ -61,6 +61,11 @@ The per-slice report (what the world handed one subscriber)
       lockstep: messages to other nodes wait for the next step's beginning.
   ``wait_sent(stall=0.2)``, ``unsent()``  messages handed over and not yet in the sockets.
 
+The check at import (:mod:`.version`)
+  ``WRITTEN_FOR``           the rospy version this layer was written for (Debian 12's).
+  ``RospyMismatch``         a SystemExit raised at import when rospy is another version or
+      lacks an attribute the layer uses: one line, naming both, and no traceback.
+
 Modules: :mod:`.connections` (the connections, counts, times, local delivery; fastpub
 before issue 45), :mod:`.gate` (stepgate), :mod:`.tcpros_guard`, :mod:`.local` (this
 process's node: from the testing instance's embed and intake), :mod:`.version`.

@@ -1,0 +1,247 @@
+"""Every shell block of the documentation works as typed (issue 46).
+
+The blocks of README.md, docs/*.md and every stack's README*.md (found anew on each run:
+test/fixtures/readme_blocks.py) run page by page, in the page's order, in bash after
+``source build/env.sh``, from the tree's root, with ROS_HOSTNAME=localhost and ROS_HOME in
+build/, against one office world started the way the README says (``roslaunch
+mobile_device_sim office.launch`` with its own master on a free port; module-scoped, shared
+by every page). A command that starts a world of its own (roslaunch of a world, roscore,
+tools/demo) gets a master of its own. Each command must exit as the page says (0 unless
+``# -> exit N``), print what the page shows (``# -> TEXT``), write the files it names, and
+print no Python traceback. A command that runs until Ctrl-C is started, checked, then
+stopped with SIGINT. Between pages the world is reset (``/gazebo/reset_world``) and the
+models a page spawned are deleted.
+
+A block marked ``<!-- not-run: REASON -->`` is not run; test_blocks_not_run_here_are_listed
+prints every such block with its reason in the test output (never a silent skip).
+The conventions are in docs/tests.md, "Documentation that is tested"."""
+import os
+import signal
+import subprocess
+import time
+
+import pytest
+import yaml
+
+from fixtures.readme_blocks import (doc_pages, shell_blocks, runs_until_interrupted,
+                                    starts_a_world)
+from fixtures.rosworld import office_world
+from sim_world.netutil import master_port
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FINITE_TIMEOUT = float(os.environ.get('MDS_README_TIMEOUT', '300'))   # s, a command run to its end
+EXPECT_TIMEOUT = 150.0    # s a command that runs until Ctrl-C has to print what the page shows
+SETTLE = {'roslaunch': 15.0, 'roscore': 3.0}    # s such a command runs when nothing is expected
+SETTLE_DEFAULT = 8.0
+STOP_TIMEOUT = 30.0       # s after SIGINT
+
+PAGES = [p for p in doc_pages(ROOT) if shell_blocks(ROOT, p)]
+
+
+def _not_run_blocks():
+    return [b for p in PAGES for b in shell_blocks(ROOT, p) if b.not_run is not None]
+
+
+def test_blocks_not_run_here_are_listed(request):
+    """Every block the suite does not run, with its reason, in the test's output."""
+    blocks = _not_run_blocks()
+    lines = ['documentation blocks not run here (%d):' % len(blocks)]
+    lines += ['  %s  not-run: %s  (%s)' % (b.where, b.not_run,
+                                           '; '.join(c.text[:60] for c in b.commands[:2]))
+              for b in blocks]
+    reporter = request.config.pluginmanager.getplugin('terminalreporter')
+    if reporter is not None:
+        reporter.write_line('')
+        for line in lines:
+            reporter.write_line(line)
+    print('\n'.join(lines))
+    for b in blocks:
+        assert b.not_run.strip(), '%s: <!-- not-run: --> needs a reason' % b.where
+
+
+@pytest.fixture(scope='module')
+def world(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp('readme_world')
+    with office_world(tmp, defaults=False) as env:
+        env = dict(env, ROS_HOME=os.path.join(ROOT, 'build', 'ros_home'))
+        os.makedirs(env['ROS_HOME'], exist_ok=True)
+        env['MDS_README_TMP'] = str(tmp)
+        env['MDS_README_MODELS'] = ' '.join(_models(env) or [])
+        yield env
+
+
+def _bash(cmd):
+    return ['bash', '-c', 'set +u; source build/env.sh >/dev/null; set -u; ' + cmd]
+
+
+def _run_quiet(env, cmd, timeout=60):
+    return subprocess.run(_bash(cmd), cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, universal_newlines=True, timeout=timeout)
+
+
+def _models(env):
+    out = _run_quiet(env, 'rostopic echo -n1 /gazebo/model_states/name').stdout
+    try:
+        names = yaml.safe_load(out.split('---')[0])
+    except yaml.YAMLError:
+        return None
+    return [str(n) for n in names] if isinstance(names, list) else None
+
+
+def _reset(env):
+    """The world as the launch made it: spawned models deleted, then reset_world."""
+    keep = set(env['MDS_README_MODELS'].split())
+    for name in _models(env) or []:
+        if name not in keep:
+            _run_quiet(env, "rosservice call /gazebo/delete_model '{model_name: %s}'" % name)
+    r = _run_quiet(env, 'rosservice call /gazebo/reset_world')
+    assert r.returncode == 0, 'reset_world between pages failed:\n' + r.stdout
+
+
+class Failure(Exception):
+    pass
+
+
+def _tail(path, n=2500):
+    with open(path, errors='replace') as f:
+        text = f.read()
+    return text[-n:]
+
+
+def _stop(p):
+    """SIGINT to the command's process group, as Ctrl-C; True if it stopped in time."""
+    if p.poll() is not None:
+        return True
+    try:
+        os.killpg(p.pid, signal.SIGINT)
+    except ProcessLookupError:
+        return True
+    try:
+        p.wait(STOP_TIMEOUT)
+        return True
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+        return False
+
+
+def _command_env(world, block_env, cmd):
+    if block_env is not None:
+        return block_env
+    if starts_a_world(cmd.text, ROOT):
+        return dict(world, ROS_MASTER_URI='http://localhost:%d' % master_port())
+    return world
+
+
+def _check_output(cmd, log, started, upto=None):
+    """upto: how much of the output came before the SIGINT (a KeyboardInterrupt's traceback
+    after it is how Python stops, not a fault)."""
+    with open(log, errors='replace') as f:
+        out = f.read()
+    before = out if upto is None else out[:upto]
+    missing = [e for e in cmd.expects if e not in out]
+    if missing:
+        raise Failure('output lacks %s' % ', '.join(repr(m) for m in missing))
+    if 'Traceback (most recent call last)' in before and not any('Traceback' in e
+                                                               for e in cmd.expects):
+        raise Failure('printed a Python traceback')
+    for path in cmd.writes:
+        full = os.path.join(ROOT, path)
+        if not os.path.exists(full):
+            raise Failure('did not write %s' % path)
+        if os.path.getmtime(full) < started - 1:
+            raise Failure('%s is older than the command' % path)
+
+
+def _run_command(cmd, env, log, background):
+    """Runs one command; returns the process if it is left running (background). Whatever
+    happens meanwhile (a failure, Ctrl-C of the suite), nothing of it is left running."""
+    started = time.time()
+    with open(log, 'w') as out:
+        p = subprocess.Popen(_bash(cmd.text), cwd=ROOT, env=env, stdout=out,
+                             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                             start_new_session=True)
+    try:
+        return _follow(cmd, p, log, background, started)
+    except BaseException:
+        _stop(p)
+        raise
+
+
+def _follow(cmd, p, log, background, started):
+    if background:
+        time.sleep(2.0)
+        if p.poll() not in (None, 0):
+            raise Failure('background command exited %s at once' % p.returncode)
+        return p
+    if runs_until_interrupted(cmd.text):
+        prog = cmd.text.split()[0]
+        deadline = time.monotonic() + (EXPECT_TIMEOUT if cmd.expects
+                                       else SETTLE.get(prog, SETTLE_DEFAULT))
+        while time.monotonic() < deadline and p.poll() is None:
+            if cmd.expects:
+                with open(log, errors='replace') as f:
+                    text = f.read()
+                if all(e in text for e in cmd.expects):
+                    break
+            time.sleep(0.3)
+        code = p.poll()
+        with open(log, errors='replace') as f:
+            upto = len(f.read())
+        stopped = _stop(p)
+        if code not in (None, 0):
+            raise Failure('exited %s before Ctrl-C (it should run until then)' % code)
+        if not stopped:
+            raise Failure('did not stop within %.0f s of SIGINT' % STOP_TIMEOUT)
+        _check_output(cmd, log, started, upto)
+        return None
+    else:
+        try:
+            p.wait(FINITE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            _stop(p)
+            raise Failure('still running after %.0f s' % FINITE_TIMEOUT)
+        if p.returncode != cmd.exit:
+            raise Failure('exit status %s, the page says %s' % (p.returncode, cmd.exit))
+    _check_output(cmd, log, started)
+    return None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('page', PAGES)
+def test_readme_page_commands_work_as_typed(page, world):
+    blocks = [b for b in shell_blocks(ROOT, page) if b.not_run is None]
+    if not blocks:
+        return
+    _reset(world)
+    tmp = world['MDS_README_TMP']
+    failures, ran = [], 0
+    t0 = time.monotonic()
+    for block in blocks:
+        block_env = None
+        if any(c.text.split()[0] == 'roscore' for c in block.commands if c.text.split()):
+            block_env = dict(world, ROS_MASTER_URI='http://localhost:%d' % master_port())
+        background = []
+        try:
+            for cmd in block.commands:
+                log = os.path.join(tmp, '%s_%d.log' % (page.replace('/', '_'), cmd.line))
+                ran += 1
+                try:
+                    p = _run_command(cmd, _command_env(world, block_env, cmd), log,
+                                     cmd.background)
+                    if p is not None:
+                        background.append(p)
+                except Failure as e:
+                    failures.append('%s:%d  %s\n    %s\n%s' % (page, cmd.line, cmd.text, e,
+                                                              _indent(_tail(log))))
+        finally:
+            for p in reversed(background):
+                _stop(p)
+    print('%s: %d commands in %d blocks, %.0f s' % (page, ran, len(blocks),
+                                                    time.monotonic() - t0))
+    assert not failures, '%d of %d commands of %s failed:\n\n%s' % (
+        len(failures), ran, page, '\n\n'.join(failures))
+
+
+def _indent(text):
+    return '\n'.join('      | ' + l for l in text.rstrip().split('\n'))

@@ -115,6 +115,8 @@ class GazeboRosApi(object):
         ]
         self.set_sub = transport.subscriber('/gazebo/set_model_state', ModelState,
                                             self._set_state_topic, queue_size=100)
+        from .joint_api import JointRosApi     # joint and link services (issue 48)
+        self.joint_api = JointRosApi(self)
 
     def attach(self, world, spawned=None):
         """Serve ``world`` from now on (sim_world's /gazebo/reload_world swaps in a new one;
@@ -297,6 +299,8 @@ class GazeboRosApi(object):
             model.tf_prefix = model.name
         stamp = self.world.ros_now()
         for j in model.joints:
+            if j.movable and not model.static:
+                continue     # movable joints: joint_states + robot_state_publisher
             self._static_tf[(model.name, j.child)] = _transform(
                 tf_frame(model, j.parent), tf_frame(model, j.child), j.origin, stamp)
         if model.static:
@@ -343,6 +347,7 @@ class GazeboRosApi(object):
         if tfs and stamp != self._last_tf_stamp:   # tf2 rejects repeated stamps (paused)
             self._last_tf_stamp = stamp
             self.tf_pub.publish(TFMessage(tfs))
+        self.joint_api.publish()
 
 
 def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds=0.005,

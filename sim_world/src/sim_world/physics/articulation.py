@@ -77,7 +77,7 @@ class JointState(object):
         self.joint = joint
         self.name = joint.name
         self.group = group_index
-        self.efforts = {}        # key -> [effort, steps left or None]
+        self.efforts = {}        # key -> [effort, steps left or None, steps before start]
         self.turns = 0           # ODE hinges: whole turns of an unwrapped angle
         self.last_raw = 0.0
         self.native = None
@@ -93,6 +93,9 @@ class JointState(object):
         total = 0.0
         for key in list(self.efforts):
             e = self.efforts[key]
+            if len(e) > 2 and e[2] > 0:     # starts later
+                e[2] -= 1
+                continue
             total += e[0]
             if e[1] is not None:
                 e[1] -= 1

@@ -644,10 +644,11 @@ class PhysicsEngine(object):
                              % (joint, name, velocity))
         self._set_joint_velocity(rec, js, v - self._joint_pos_vel(rec, js)[1])
 
-    def apply_joint_effort(self, name, joint, effort, steps=None, key=None):
+    def apply_joint_effort(self, name, joint, effort, steps=None, key=None, delay=0):
         """An effort (N m or N) on a movable joint during the next ``steps`` steps (None:
         until cleared); the same ``key`` replaces, different keys add up. Each step the sum
-        goes through Gazebo's CheckAndTruncateForce (velocity and effort limits)."""
+        goes through Gazebo's CheckAndTruncateForce (velocity and effort limits); it starts
+        after ``delay`` steps."""
         rec, js = self._joint_of(name, joint)
         if not js.movable:
             raise KeyError('joint %r of model %r is fixed' % (joint, name))
@@ -662,7 +663,7 @@ class PhysicsEngine(object):
         if key is None:
             self._wrench_seq += 1
             key = ('_once', self._wrench_seq)
-        js.efforts[key] = [e, steps]
+        js.efforts[key] = [e, steps, max(0, int(delay))]
         rec.art.refresh()
 
     def clear_joint_efforts(self, name, joint=None, key=None):

@@ -1,0 +1,101 @@
+"""Issue 46 through ROS, on a running office world (test/fixtures/rosworld.py):
+
+- the README's `rosparam set robot_description "$(xacro sim_world/urdf/mobile_device.urdf.xacro)"`
+  works (rosparam parses the value as YAML: one string) and reads back as the same robot;
+- `spawn_model ... -model phone2 -robot_namespace /phone2` from that description gives a second
+  phone beside office.launch's /mobile_device one, with its own sensors, services and faults;
+- a spawn without a namespace whose plugins would take another model's names is refused with
+  one line naming both models and the name, suggesting -robot_namespace; nothing of it stays
+  and the first model keeps running."""
+import os
+import subprocess
+import sys
+import xmlrpc.client
+
+import pytest
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from fixtures.rosworld import office_world  # noqa: E402
+
+ROOT = os.path.dirname(HERE)
+PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+
+pytestmark = pytest.mark.rostest
+
+
+def sh(env, cmd, timeout=60):
+    return subprocess.run(['bash', '-c', cmd], env=env, cwd=ROOT, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def spawn(env, *args):
+    return sh(env, 'rosrun mobile_device_sim spawn_model -urdf -param robot_description '
+              + ' '.join(args), timeout=90)
+
+
+def one_message(env, topic, timeout=20):
+    """True when ``topic`` delivers a message within ``timeout`` s of wall time."""
+    try:
+        r = sh(env, 'rostopic echo -n 1 --noarr %s/header/stamp' % topic, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return False
+    return r.returncode == 0 and 'secs' in r.stdout
+
+
+def call(env, srv, args):
+    r = sh(env, "rosservice call %s '%s'" % (srv, args))
+    assert r.returncode == 0, (srv, r.stdout, r.stderr)
+    return yaml.safe_load(r.stdout)
+
+
+def test_rosparam_set_and_two_phones_side_by_side(tmp_path):
+    from sim_world.urdf import parse_urdf
+    xml = subprocess.run(['xacro', PHONE], check=True, capture_output=True, text=True).stdout
+    with office_world(tmp_path) as env:
+        # 1. the README's rosparam set, read back
+        r = sh(env, 'rosparam set robot_description "$(xacro %s)"' % PHONE)
+        assert r.returncode == 0, r.stderr[-2000:]
+        code, _m, value = xmlrpc.client.ServerProxy(env['ROS_MASTER_URI']).getParam(
+            '/test', '/robot_description')
+        assert code == 1 and isinstance(value, str)
+        assert value == yaml.safe_load(xml)             # what rosparam promises: the string
+        a, b = parse_urdf(xml, name='a'), parse_urdf(value, name='a')
+        assert sorted(a.links) == sorted(b.links) and len(a.plugins) == len(b.plugins)
+
+        # 2. a second phone from the same description, in /phone2
+        r = spawn(env, '-model phone2 -x 3 -y -2 -z 1.2 -robot_namespace /phone2')
+        assert r.returncode == 0, r.stdout + r.stderr
+        for topic in ('/phone2/imu_sensor_data', '/phone2/image_raw', '/phone2/magnetic',
+                      '/mobile_device/imu_sensor_data'):
+            assert one_message(env, topic), topic
+        for srv, args in (('/phone2/inject_touch', '{x: 100, y: 200, duration: 0.1}'),
+                          ('/phone2/press_button', '{button: power, duration: 0.1}'),
+                          ('/phone2/set_device_time', '{device_time: {secs: 1000, nsecs: 0}}')):
+            res = call(env, srv, args)
+            assert res['success'] is True, (srv, res)
+        res = call(env, '/gazebo/set_sensor_fault',
+                   '{model_name: phone2, sensor: imu_controller, fault: drop}')
+        assert res['success'] is True, res
+        assert not one_message(env, '/phone2/imu_sensor_data', timeout=4)     # its fault ...
+        assert one_message(env, '/mobile_device/imu_sensor_data')             # ... only
+
+        # 3. no namespace: the first spawn takes the global names, the second is refused
+        r = spawn(env, '-model lone -x 2 -y -2 -z 1.2')
+        assert r.returncode == 0, r.stdout + r.stderr
+        r = spawn(env, '-model lone2 -x 2 -y -1 -z 1.2')
+        assert r.returncode == 1
+        lines = [ln for ln in (r.stdout + r.stderr).splitlines() if 'clashes' in ln]
+        assert len(lines) == 1, r.stdout + r.stderr
+        assert "'lone2'" in lines[0] and "'lone'" in lines[0]
+        assert '/imu_sensor_data' in lines[0] and '-robot_namespace /lone2' in lines[0]
+        res = call(env, '/gazebo/get_model_state', '{model_name: lone2}')
+        assert res['success'] is False                                  # no body
+        res = call(env, '/gazebo/get_model_state', '{model_name: lone}')
+        assert res['success'] is True
+        assert one_message(env, '/imu_sensor_data')                     # the first runs on
+        res = call(env, '/set_device_time', '{device_time: {secs: 5, nsecs: 0}}')  # and serves
+        assert res['success'] is True, res
+        r = sh(env, 'rosnode list')
+        assert r.returncode == 0 and '/sim_world' in r.stdout          # the world lives

@@ -16,7 +16,6 @@ import math
 import threading
 import time
 
-import numpy as np
 import rospy
 from geometry_msgs.msg import Pose as PoseMsg
 from geometry_msgs.msg import TransformStamped, Twist
@@ -30,16 +29,12 @@ from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelSta
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
-from . import transport
+from . import srvcheck, transport
 from .model import ModelError
 from .spawn import spawn_xml
-from .transforms import InvalidPose, Pose
+from .transforms import InvalidPose
 
 __all__ = ['GazeboRosApi', 'run_loop', 'tf_frame']
-
-
-def _vec3(v):
-    return np.array([v.x, v.y, v.z], float)
 
 
 def _twist_msg(lin, ang):
@@ -137,6 +132,9 @@ class GazeboRosApi(object):
             self._model_added(m)
 
     # -- services --------------------------------------------------------------------------
+    # Each handler checks its request's values with sim_world.srvcheck; srvcheck.answers
+    # turns a refusal (and any bug) into success: false and one log line, never a traceback.
+    @srvcheck.answers(GetModelStateResponse, 'GetModelState', log='warn')
     def get_model_state(self, req):
         res = GetModelStateResponse()
         self._get_seq += 1
@@ -148,7 +146,7 @@ class GazeboRosApi(object):
                 pose, lin, ang = self.world.get_state(req.model_name, req.relative_entity_name)
             except KeyError as e:
                 res.success = False
-                res.status_message = 'GetModelState: %s' % e.args[0]
+                res.status_message = srvcheck.one_line('GetModelState: %s' % e.args[0])
                 rospy.logwarn(res.status_message)
                 return res
         res.pose = pose.to_msg()
@@ -158,20 +156,24 @@ class GazeboRosApi(object):
         return res
 
     def _apply_state(self, state):
+        """(success, status message) of setting a ModelState (the service and the topic)."""
         try:
-            pose = Pose.from_msg(state.pose)
-        except InvalidPose as e:
-            return False, 'SetModelState: refusing pose of model %r: %s' % (state.model_name, e)
-        lin, ang = _vec3(state.twist.linear), _vec3(state.twist.angular)
+            # a pose beyond MAX_POSITION, a spin of 1e300 rad/s: ODE aborts the process
+            pose = srvcheck.pose(state.pose, 'pose')
+            lin, ang = srvcheck.twist(state.twist, 'twist')
+        except srvcheck.BadRequest as e:
+            return False, srvcheck.one_line('SetModelState: refusing state of model %r: %s'
+                                            % (state.model_name, e))
         try:
             with self.world.lock:
                 self.world.set_state(state.model_name, pose, lin, ang, state.reference_frame)
         except KeyError as e:
-            return False, 'SetModelState: %s' % e.args[0]
+            return False, srvcheck.one_line('SetModelState: %s' % e.args[0])
         except (InvalidPose, ModelError) as e:
-            return False, 'SetModelState: model %r: %s' % (state.model_name, e)
+            return False, srvcheck.one_line('SetModelState: model %r: %s' % (state.model_name, e))
         return True, 'SetModelState: set model state done'
 
+    @srvcheck.answers(SetModelStateResponse, 'SetModelState', log='warn')
     def set_model_state(self, req):
         ok, msg = self._apply_state(req.model_state)
         if not ok:
@@ -179,11 +181,19 @@ class GazeboRosApi(object):
         return SetModelStateResponse(ok, msg)
 
     def _set_state_topic(self, state):
-        ok, msg = self._apply_state(state)
+        try:
+            ok, msg = self._apply_state(state)
+        except Exception as e:  # noqa: BLE001 - a bug: one line, the subscriber goes on
+            ok, msg = False, srvcheck.one_line('SetModelState: internal error: %s: %s'
+                                               % (type(e).__name__, e))
         if not ok:
             rospy.logwarn(msg)
 
     def _spawn(self, req, kind):
+        try:
+            srvcheck.ros_namespace(req.robot_namespace)
+        except srvcheck.BadRequest as e:
+            raise srvcheck.BadRequest('model %r not spawned: %s' % (req.model_name, e))
         ok, msg = spawn_xml(self.world, kind, req.model_name, req.model_xml,
                             req.robot_namespace, req.initial_pose, req.reference_frame)
         if not ok:
@@ -196,27 +206,32 @@ class GazeboRosApi(object):
                           len(model.links), len(model.plugins))
         return SpawnModelResponse(True, msg)
 
+    @srvcheck.answers(SpawnModelResponse, 'SpawnModel')
     def spawn_urdf_model(self, req):
         return self._spawn(req, 'urdf')
 
+    @srvcheck.answers(SpawnModelResponse, 'SpawnModel')
     def spawn_sdf_model(self, req):
         return self._spawn(req, 'sdf')
 
+    @srvcheck.answers(DeleteModelResponse, 'DeleteModel', log='warn')
     def delete_model(self, req):
         try:
             with self.world.lock:
                 self.world.delete_model(req.model_name)
             self.spawned.pop(req.model_name, None)
         except KeyError as e:
-            msg = 'DeleteModel: %s' % e.args[0]
+            msg = srvcheck.one_line('DeleteModel: %s' % e.args[0])
             rospy.logwarn(msg)
             return DeleteModelResponse(False, msg)
         return DeleteModelResponse(True, 'DeleteModel: successfully deleted model')
 
+    @srvcheck.answers(EmptyResponse, 'pause_physics')
     def pause(self, _req):
         self.paused = True
         return EmptyResponse()
 
+    @srvcheck.answers(EmptyResponse, 'unpause_physics')
     def unpause(self, _req):
         if transport.holding():             # a pipelined runner's last slice: the world runs
             transport.release(stop=True)
@@ -224,15 +239,14 @@ class GazeboRosApi(object):
         self.reset_anchor.set()
         return EmptyResponse()
 
+    @srvcheck.answers(StepWorldResponse, 'StepWorld',
+                      fill=lambda self: dict(sim_time=self.world.sim_time))
     def step_world(self, req):
         """Run until sim time req.until (the first step at or after it), then pause."""
         if self.step_until is not None:
-            return StepWorldResponse(False, 'StepWorld: another step_world call is running',
-                                     self.world.sim_time, [], [], [], [], [], [])
-        until = float(req.until)
-        if not math.isfinite(until):
-            return StepWorldResponse(False, 'StepWorld: until must be a number, got %r'
-                                     % until, self.world.sim_time, [], [], [])
+            raise srvcheck.BadRequest('another step_world call is running')
+        # a step to 1e300 s would never end, and hold every other call to the world meanwhile
+        until = srvcheck.sim_time(req.until, 'until')
         with self.world.lock:
             # a camera subscribed since the last step makes the renderer now, outside the
             # step: the runner's step to the current time before its timeline does it
@@ -261,7 +275,7 @@ class GazeboRosApi(object):
             transport.reopen_gate()
         self.step_until = None
         # the slice's messages to remote subscribers are in their sockets before the answer:
-        # an app that looks idle then has answered (testing_instance.appwatch's evidence)
+        # an app that looks idle then has answered (testing_instance.world.appwatch's evidence)
         counts, times = transport.slice_report(req.subscriber)
         topics = sorted(counts)
         timed = sorted(times)
@@ -283,11 +297,13 @@ class GazeboRosApi(object):
             return True
         return False
 
+    @srvcheck.answers(EmptyResponse, 'reset_world')
     def reset_world(self, _req):
         self.world.reset(time=False)
         self.reset_anchor.set()
         return EmptyResponse()
 
+    @srvcheck.answers(EmptyResponse, 'reset_simulation')
     def reset_simulation(self, _req):
         self.world.reset(time=True)
         self.reset_anchor.set()

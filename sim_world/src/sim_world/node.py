@@ -26,7 +26,7 @@ import rospy.core
 
 from . import transport
 from .gazebo_api import GazeboRosApi, run_loop
-from .model import ModelError
+from .model import MAX_POSITION, ModelError
 ENGINES = ("ode", "bullet")
 from .sdf import load_world_file
 from .world import World
@@ -249,8 +249,9 @@ class WorldHost(object):
                              % (self.world.seed, seed))
         seed = self.world.seed if seed == -1 else seed
         rtf = float(req.real_time_factor)
-        if math.isnan(rtf):
-            raise ValueError('real_time_factor must be a number, got nan')
+        if not math.isfinite(rtf):        # -inf too: -1 is the 'keep' the type documents
+            raise ValueError('real_time_factor must be a number (< 0: keep %g), got %r'
+                             % (self.rtf, rtf))
         rtf = self.rtf if rtf < 0 else rtf
         start = self.start_models
         if start is None:                 # the first reload: what the launch spawned
@@ -276,6 +277,10 @@ class WorldHost(object):
                         not math.isfinite(v):
                     raise ValueError('start_poses: %s.%s must be a finite number, got %r'
                                      % (name, k, v))
+                # checked now: the spawn would refuse it after the old world is gone
+                if k in 'xyz' and abs(v) > MAX_POSITION:
+                    raise ValueError('start_poses: %s.%s must be within +-%g m, got %r'
+                                     % (name, k, MAX_POSITION, v))
         return dict(seed=seed, rtf=rtf, start=start, poses=poses)
 
     def _do_reload(self, plan, done, box):

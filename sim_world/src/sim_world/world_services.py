@@ -14,7 +14,7 @@ from mobile_device_sim.msg import EnvironmentValue
 from mobile_device_sim.srv import (SetEnvironment, SetEnvironmentResponse, SetSensorFault,
                                    SetSensorFaultResponse)
 
-from . import transport
+from . import srvcheck, transport
 from .environment import EnvironmentError
 from .plugins.sensor import inject_fault
 
@@ -52,6 +52,7 @@ class WorldServices(object):
             msg = environment_msg(self.world.environment, self.world.ros_now())
         self.env_pub.publish(msg)
 
+    @srvcheck.answers(SetEnvironmentResponse, 'SetEnvironment')
     def set_environment(self, req):
         res = SetEnvironmentResponse()
         with self.world.lock:
@@ -59,7 +60,8 @@ class WorldServices(object):
                 self.world.environment.set_many([(v.name, v.value) for v in req.values])
             except EnvironmentError as e:
                 res.success = False
-                res.status_message = 'SetEnvironment: %s; nothing changed' % e
+                res.status_message = srvcheck.one_line('SetEnvironment: %s; nothing changed'
+                                                       % e)
                 rospy.logerr(res.status_message)
                 return res
         res.success = True
@@ -68,7 +70,11 @@ class WorldServices(object):
         self.publish_environment()
         return res
 
+    @srvcheck.answers(SetSensorFaultResponse, 'SetSensorFault')
     def set_sensor_fault(self, req):
+        # every fault takes the value (noise: the sigmas' multiplier; inf or 1e300 would
+        # publish inf and NaN): a finite number of a sensible size, whatever the fault
+        srvcheck.number(req.value, 'value', -srvcheck.MAX_SCALE, srvcheck.MAX_SCALE)
         res = SetSensorFaultResponse()
         with self.world.lock:
             if req.model_name not in self.world.models:
@@ -88,6 +94,7 @@ class WorldServices(object):
                     except ValueError as e:
                         res.status_message = 'SetSensorFault: %s' % e
         if not res.success:
+            res.status_message = srvcheck.one_line(res.status_message)
             rospy.logerr(res.status_message)
         else:
             rospy.loginfo(res.status_message)

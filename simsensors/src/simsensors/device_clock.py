@@ -15,11 +15,14 @@ device time, source = the plugin's name), default 1 Hz of sim time.
 """
 import math
 
+from sim_world import srvcheck
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
 
-__all__ = ['DeviceClock']
+__all__ = ['DeviceClock', 'MAX_DEVICE_TIME']
+
+MAX_DEVICE_TIME = 2.0 ** 32 - 1     # s: the latest time a ROS time message holds (2106)
 
 
 @register('libgazebo_ros_device_clock.so')
@@ -58,12 +61,11 @@ class DeviceClock(Sensor):
     def set_device_time(self, device_time, sim_time=None):
         """Set the clock to ``device_time`` (s) now; returns (success, status_message)."""
         try:
-            d = float(device_time)
-        except (TypeError, ValueError):
-            d = float('nan')
-        if not math.isfinite(d) or d < 0:
-            msg = ('%s: device_time must be a time >= 0 (s since 1970), got %r'
-                   % (self.label, device_time))
+            # up to what a ROS time holds (TimeReference.time_ref: unsigned 32-bit seconds)
+            d = srvcheck.number(device_time, 'device_time', 0, MAX_DEVICE_TIME,
+                                's since 1970')
+        except srvcheck.BadRequest as e:
+            msg = '%s: %s' % (self.label, e)
             self.log_error(msg)
             return False, msg
         t = self.world.sim_time if sim_time is None else sim_time

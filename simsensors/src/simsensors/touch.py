@@ -39,6 +39,7 @@ from collections import deque
 
 import numpy as np
 
+from sim_world import srvcheck
 from sim_world.plugins import PluginError, register
 from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
@@ -217,20 +218,18 @@ class TouchScreen(Sensor):
     def inject_touch(self, x, y, duration, pressure=0.5, x_end=-1.0, y_end=-1.0):
         """Queue a tap/swipe; returns (ok, status text, key)."""
         w, h = self.size
-        vals = (x, y, duration, pressure, x_end, y_end)
-        if not all(np.isfinite(v) for v in vals):
-            return False, 'inject_touch: values must be finite numbers, got %r' % (vals,), None
-        if not (0 <= x <= w and 0 <= y <= h):
-            return False, ('inject_touch: (%g, %g) is outside the display (0..%d, 0..%d px)'
-                           % (x, y, w, h)), None
-        if not duration > 0:
-            return False, 'inject_touch: duration must be > 0 s, got %g' % duration, None
-        if not 0 <= pressure <= 1:
-            return False, 'inject_touch: pressure must be 0..1, got %g' % pressure, None
-        swipe = x_end >= 0 or y_end >= 0
-        if swipe and not (0 <= x_end <= w and 0 <= y_end <= h):
-            return False, ('inject_touch: end (%g, %g) is outside the display (0..%d, 0..%d px)'
-                           % (x_end, y_end, w, h)), None
+        try:
+            x = srvcheck.number(x, 'x', 0, w, 'px (the display)')
+            y = srvcheck.number(y, 'y', 0, h, 'px (the display)')
+            duration = srvcheck.duration(duration)
+            pressure = srvcheck.number(pressure, 'pressure', 0, 1)
+            x_end, y_end = (srvcheck.number(x_end, 'x_end'), srvcheck.number(y_end, 'y_end'))
+            swipe = x_end >= 0 or y_end >= 0
+            if swipe:
+                srvcheck.number(x_end, 'x_end', 0, w, 'px (the display; both < 0: no move)')
+                srvcheck.number(y_end, 'y_end', 0, h, 'px (the display; both < 0: no move)')
+        except srvcheck.BadRequest as e:
+            return False, 'inject_touch: %s' % e, None
         with self._lock:
             self._n_inject += 1
             key = 'inject#%d' % self._n_inject
@@ -242,11 +241,11 @@ class TouchScreen(Sensor):
 
     def press_button(self, button, duration):
         names = [n for n, _ in self.button_links]
-        if button not in names:
-            return False, ('press_button: %r is not a button of %s (buttons: %s)'
-                           % (button, self.model.name, ', '.join(names) or 'none'))
-        if not (np.isfinite(duration) and duration > 0):
-            return False, 'press_button: duration must be > 0 s, got %r' % duration
+        try:
+            srvcheck.name(button, 'button', names, kind='button of %s' % self.model.name)
+            duration = srvcheck.duration(duration)
+        except srvcheck.BadRequest as e:
+            return False, 'press_button: %s' % e
         with self._lock:
             now = self.world.sim_time
             self._inject_buttons.append(dict(button=button, start=now, end=now + duration))

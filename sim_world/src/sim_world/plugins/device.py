@@ -288,7 +288,12 @@ class Device(Plugin):
     def service(self, rel_name, srv_type, callback):
         if not self.ros:
             return None
-        from sim_world import transport
+        from sim_world import srvcheck, transport
+        # a refusal (srvcheck.BadRequest) or a bug in the callback: success false and one
+        # line in this plugin's log, never a traceback; the plugin keeps serving
+        callback = srvcheck.answers(
+            srv_type._response_class, rel_name,
+            log=lambda text: self.log_error('%s: %s' % (self.label, text)))(callback)
         srv = transport.service(self.resolve(rel_name), srv_type, callback)
         self.srvs.append(srv)
         return srv

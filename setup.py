@@ -12,7 +12,8 @@ STACKS = {
     'kinect4skype': ['kinect4skype'],
     'vnc_image_client': ['vnc_image_client'],
     'emulator_bridge': ['emulator_bridge'],
-    'testing_instance': ['testing_instance'],
+    'testing_instance': ['testing_instance', 'testing_instance.scenario', 'testing_instance.io',
+                         'testing_instance.world', 'testing_instance.run', 'testing_instance.farm'],
     'sim_studio': ['sim_studio'],
 }
 packages = [p for pkgs in STACKS.values() for p in pkgs]

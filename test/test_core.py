@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from testing_instance import procs
+from testing_instance.world import procs
 
 pytestmark = pytest.mark.rostest
 

@@ -76,7 +76,7 @@ def qr_reports(tmp_path_factory):
 
 def test_mcap_and_rosbag_of_one_run_hold_the_same_messages(compass):
     assert compass['rc'] == 1, compass['out']
-    from testing_instance.mcap_io import open_reader
+    from testing_instance.io.mcap_io import open_reader
     got = {}
     for name in ('run.bag', 'run.mcap'):
         r = open_reader(str(compass['dir'] / name))

@@ -131,7 +131,7 @@ def _msgs(n):
 
 
 def test_writer_on_a_full_filesystem_keeps_what_fit(tmp_path, small_fs):
-    from testing_instance.mcap_io import GuardedWriter
+    from testing_instance.io.mcap_io import GuardedWriter
     w = GuardedWriter([str(small_fs / 'a.bag')])
     for topic, msg, t in _msgs(20000):         # ~4.6 MB into 2 MB: never raises
         w.write(topic, msg, t)
@@ -145,7 +145,7 @@ def test_writer_on_a_full_filesystem_keeps_what_fit(tmp_path, small_fs):
 
 def test_writer_both_formats_one_fails(tmp_path, small_fs):
     """--record on two files: the one on the full filesystem fails, the other is whole."""
-    from testing_instance.mcap_io import GuardedWriter, open_reader
+    from testing_instance.io.mcap_io import GuardedWriter, open_reader
     ok = tmp_path / 'ok.mcap'
     w = GuardedWriter([str(small_fs / 'b.bag'), str(ok)])
     for topic, msg, t in _msgs(20000):
@@ -158,7 +158,7 @@ def test_writer_both_formats_one_fails(tmp_path, small_fs):
 
 
 def test_writer_that_cannot_create_its_file_says_so(tmp_path):
-    from testing_instance.mcap_io import GuardedWriter, RecordingError
+    from testing_instance.io.mcap_io import GuardedWriter, RecordingError
     (tmp_path / 'file').write_text('not a folder')
     with pytest.raises(RecordingError) as e:
         GuardedWriter([str(tmp_path / 'file' / 'run.bag')])
@@ -166,7 +166,7 @@ def test_writer_that_cannot_create_its_file_says_so(tmp_path):
 
 
 def test_writer_in_a_removed_folder_saves_the_whole_recording(tmp_path):
-    from testing_instance.mcap_io import GuardedWriter
+    from testing_instance.io.mcap_io import GuardedWriter
     d = tmp_path / 'gone'
     w = GuardedWriter([str(d / 'c.bag')], salvage_dir=str(tmp_path / 'kept'))
     msgs = list(_msgs(3000))

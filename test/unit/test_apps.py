@@ -12,9 +12,9 @@ import types
 
 import pytest
 
-from testing_instance.appwatch import AppWatch
-from testing_instance.apps import Apps
-from testing_instance.results import RunError
+from testing_instance.world.appwatch import AppWatch
+from testing_instance.world.apps import Apps
+from testing_instance.scenario.results import RunError
 
 
 def _scenario(tmp_path, apps):
@@ -280,7 +280,7 @@ def test_an_app_at_work_for_good_is_waited_for_at_most_the_watchs_limit(tmp_path
 
 
 def test_a_python_node_app_is_found_as_rosrun_finds_it():
-    from testing_instance.apps import python_node
+    from testing_instance.world.apps import python_node
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     # devel space holds catkin's relay to the source script: the script itself is run
     assert python_node('mobile_device_sim', 'barcode_reader') == \
@@ -294,7 +294,7 @@ def test_a_python_node_app_is_found_as_rosrun_finds_it():
 
 def test_a_python_node_app_runs_as_a_script_app_and_another_through_rosrun(tmp_path,
                                                                           monkeypatch):
-    import testing_instance.apps as apps_mod
+    import testing_instance.world.apps as apps_mod
     _script(tmp_path, 'node.py', 'print(" ".join(sys.argv)); sys.stdout.flush()')
     monkeypatch.setattr(apps_mod, 'python_node', lambda pkg, typ: str(tmp_path / 'node.py')
                         if typ == 'py_node' else None)

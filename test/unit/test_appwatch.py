@@ -1,4 +1,4 @@
-"""The runner's evidence that apps answered a slice (testing_instance.appwatch), on real
+"""The runner's evidence that apps answered a slice (testing_instance.world.appwatch), on real
 processes: idle, busy, stopped, one that does not read its connection, and one that dies
 slowly after an uncaught exception."""
 import contextlib
@@ -12,8 +12,8 @@ import time
 
 import pytest
 
-from testing_instance import procs
-from testing_instance.appwatch import AppHung, AppWatch
+from testing_instance.world import procs
+from testing_instance.world.appwatch import AppHung, AppWatch
 
 
 class P(object):

@@ -1,7 +1,7 @@
 """Clock sources of the runner's loop (no ROS)."""
 import pytest
 
-from testing_instance.clock import ReplayClock, WorldClock
+from testing_instance.run.clock import ReplayClock, WorldClock
 
 
 def test_replay_clock_publishes_a_slice_in_order_with_clock_before_each():

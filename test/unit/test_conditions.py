@@ -4,7 +4,7 @@ import types
 
 import pytest
 
-from testing_instance.timeline import ConditionError, Conditions
+from testing_instance.scenario.timeline import ConditionError, Conditions
 
 EVENTS = [
     {'id': 'start', 'at': 0.0, 'action': 'walk'},

@@ -1,4 +1,4 @@
-"""testing_instance.embed without a roscore: a launch file split for an embedded world
+"""testing_instance.world.embed without a roscore: a launch file split for an embedded world
 (roslaunch's own loader), the world node's argv, the world's services as function calls."""
 import os
 
@@ -7,8 +7,8 @@ import pytest
 pytest.importorskip('roslaunch')
 
 from sim_world import transport  # noqa: E402
-from testing_instance import embed  # noqa: E402
-from testing_instance.results import RunError  # noqa: E402
+from testing_instance.world import embed  # noqa: E402
+from testing_instance.scenario.results import RunError  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OFFICE = os.path.join(ROOT, 'sim_world', 'launch', 'office.launch')

@@ -1,6 +1,6 @@
 """Fuzzed recordings for --replay (issue 19 item 3): a rosbag or MCAP recording cut short,
 bit-flipped, overwritten, grown, or no recording at all goes through
-``testing_instance.replay.load_recording`` (what `run_scenario --replay` reads before it
+``testing_instance.run.replay.load_recording`` (what `run_scenario --replay` reads before it
 starts anything). Every result is either one RecordingError line naming the file, or a
 replayable recording (meta, one legal message type per input topic, messages in time order
 that serialize again as the replay publishes them) with at most one warning line naming the
@@ -19,8 +19,8 @@ rospy = pytest.importorskip('rospy')
 pytest.importorskip('mcap_ros1')
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 
-from testing_instance.mcap_io import RecordingError, open_writer  # noqa: E402
-from testing_instance.replay import load_recording  # noqa: E402
+from testing_instance.io.mcap_io import RecordingError, open_writer  # noqa: E402
+from testing_instance.run.replay import load_recording  # noqa: E402
 
 IMU = '/mobile_device/imu_sensor_data'
 TYPE_RE = re.compile(r'\A[A-Za-z]\w*/[A-Za-z]\w*\Z')

@@ -1,7 +1,7 @@
 """The runner's inbox: stamp order, per-topic counts, waiting for exact counts."""
 import threading
 
-from testing_instance.inbox import Inbox
+from testing_instance.run.inbox import Inbox
 
 
 def test_take_sorts_by_stamp_then_topic_then_arrival_and_empties():

@@ -11,9 +11,9 @@ import rospy
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Float32, String
 
-from testing_instance.inbox import Inbox
-from testing_instance.intake import Intake, stamp_of
-from testing_instance.recording import EVENTS_TOPIC, META_TOPIC, Recorder, read_meta
+from testing_instance.run.inbox import Inbox
+from testing_instance.run.intake import Intake, stamp_of
+from testing_instance.run.recording import EVENTS_TOPIC, META_TOPIC, Recorder, read_meta
 
 
 class FakeRospy(object):
@@ -187,7 +187,7 @@ def test_recorded_messages_keep_their_times_and_the_recorder_writes_events_and_m
 
 
 def test_a_recording_that_cannot_be_made_is_an_error_naming_the_file(tmp_path):
-    from testing_instance.mcap_io import RecordingError
+    from testing_instance.io.mcap_io import RecordingError
     rec = Recorder()
     (tmp_path / 'file').write_text('a file, not a folder')
     bad = str(tmp_path / 'file' / 'r.bag')
@@ -292,7 +292,7 @@ def test_subscribing_asks_the_master_for_its_state_once_and_classifies_by_it(mon
 def test_a_subscription_that_does_not_connect_is_said_not_passed_over(monkeypatch):
     """The runner's subscription with no publisher connected, and one the world never took
     on its side, after CONNECT_WAIT: one WARNING each, naming the topics; the run goes on."""
-    from testing_instance import intake
+    from testing_instance.run import intake
     monkeypatch.setattr(intake, 'CONNECT_WAIT', 0.2)
     said = []
     it = Intake(Inbox(), Recorder(), said.append)

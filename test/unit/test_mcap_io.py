@@ -1,4 +1,4 @@
-"""testing_instance.mcap_io: recordings as rosbag or MCAP (ROS 1), no roscore.
+"""testing_instance.io.mcap_io: recordings as rosbag or MCAP (ROS 1), no roscore.
 
 The same messages written to a rosbag and an MCAP file read back equal (bytes, times,
 topics, types); the MCAP file is what Foxglove reads (profile ros1, ros1msg schemas with the
@@ -10,7 +10,7 @@ import pytest
 rospy = pytest.importorskip('rospy')
 pytest.importorskip('mcap_ros1')
 
-from testing_instance.mcap_io import (RecordingError, open_reader,  # noqa: E402
+from testing_instance.io.mcap_io import (RecordingError, open_reader,  # noqa: E402
                                       open_writer)
 
 
@@ -102,7 +102,7 @@ def test_a_long_recording_does_not_grow_the_writer(tmp_path):
     import tracemalloc
     import rospy
     from std_msgs.msg import String
-    from testing_instance.mcap_io import open_writer, open_reader
+    from testing_instance.io.mcap_io import open_writer, open_reader
     w = open_writer(str(tmp_path / 'long.bag'))
     m = String('x' * 20)
 
@@ -134,7 +134,7 @@ def test_the_runners_bag_is_rosbags_bytes_written_a_chunk_at_a_time(tmp_path):
     import rosbag
     from sensor_msgs.msg import Imu
     from std_msgs.msg import String
-    from testing_instance.bagwriter import BagWriter
+    from testing_instance.io.bagwriter import BagWriter
 
     class Counting(object):
         def __init__(self, f):

@@ -1,4 +1,4 @@
-"""A scenario's Python app started before the world is ready (testing_instance.preapp,
+"""A scenario's Python app started before the world is ready (testing_instance.world.preapp,
 procs.PreApp): it imports the libraries its script imports at its top, talks to no master
 until it is told the run's, then runs the script as ``python3 SCRIPT ARGS`` would."""
 import json
@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from testing_instance import procs
-from testing_instance.preapp import leading_imports, outside
+from testing_instance.world import procs
+from testing_instance.world.preapp import leading_imports, outside
 
 
 def test_leading_imports_are_the_imports_before_the_first_other_statement(tmp_path):
@@ -189,7 +189,7 @@ def test_without_go_the_script_never_runs(tmp_path):
 RUNNER = '''\
 import sys, time
 sys.path.insert(0, %r)
-from testing_instance import procs
+from testing_instance.world import procs
 p = procs.PreApp(sys.argv[1], [], None, sys.argv[2])
 p.go(sys.argv[3])
 print(p.p.pid, flush=True)
@@ -202,7 +202,7 @@ def test_an_app_whose_shutdown_hangs_goes_a_grace_after_its_runner_is_killed(tmp
     app running for good. The parent-death SIGTERM ran rospy's handler in the app's main
     thread, whose shutdown waited for the lock of the master proxy that thread held. Here
     the master accepts the app's call and never answers: its shutdown hangs too."""
-    from testing_instance import preapp
+    from testing_instance.world import preapp
     kid = tmp_path / 'kid'
     f = _app(tmp_path, 'import subprocess\nimport rospy\n'        # a child of its own too
              'open(%r, "w").write(str(subprocess.Popen(["sleep", "600"]).pid))\n'

@@ -1,4 +1,5 @@
-"""The runner's split modules: results/procs/recording need no runner, replay no import circle."""
+"""testing_instance's shape: sub-packages by job, each importing only those below it; the
+runner's pieces need no runner; actions are objects; and the pieces' own behaviour."""
 import ast
 import json
 import os
@@ -11,28 +12,76 @@ import rosbag
 import rospy
 from std_msgs.msg import String
 
-import testing_instance
-from testing_instance import procs, recording, results, runner
+from testing_instance.run import recording, runner
+from testing_instance.scenario import results
+from testing_instance.world import procs
 
-PKG = os.path.dirname(testing_instance.runner.__file__)  # the sources (the package's __init__ may be catkin's devel shim)
+# the sources (the package's __init__ may be catkin's devel shim)
+PKG = os.path.dirname(os.path.dirname(runner.__file__))
+
+#: the floors of the package, bottom up: a module imports only its own room and the rooms
+#: below it (the report stands between the world and the run; the entry point's shim of the
+#: pytest plugin on top)
+FLOORS = [('scenario', 'io'), ('world',), ('report',), ('run',), ('farm',), ('pytest_plugin',)]
 
 
-def _imports(mod):
-    tree = ast.parse(open(os.path.join(PKG, mod + '.py')).read())
-    names = set()
+def _room(rel):
+    """The room of a module path inside the package: its sub-package, or its own name."""
+    return rel.split(os.sep)[0] if os.sep in rel else rel[:-3]
+
+
+def _sources():
+    for dirpath, _dirs, files in os.walk(PKG):
+        for f in sorted(files):
+            if f.endswith('.py'):
+                p = os.path.join(dirpath, f)
+                yield os.path.relpath(p, PKG), ast.parse(open(p).read())
+
+
+def _rooms_imported(rel, tree):
+    """The rooms module ``rel`` imports (relative imports, and absolute ones of the package)."""
+    here = os.path.dirname(rel).split(os.sep) if os.path.dirname(rel) else []
+    out = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.level == 1:
-            names.add(node.module)
-    return names
+        if isinstance(node, ast.ImportFrom) and node.level:
+            base = here[:len(here) - (node.level - 1)] if node.level > 1 else list(here)
+            parts = base + (node.module.split('.') if node.module else [])
+            if parts:
+                out.add(parts[0])
+            else:
+                out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and (node.module or '').startswith(
+                'testing_instance.'):
+            out.add(node.module.split('.')[1])
+    return out
 
 
-def test_replay_and_pieces_do_not_import_the_runner():
-    pieces = ('replay', 'results', 'procs', 'recording', 'intake', 'apps', 'worldside',
-              'inbox', 'timeline', 'clock', 'actions', 'appwatch')
-    for mod in pieces:
-        assert 'runner' not in _imports(mod), mod
-    assert {'results', 'procs', 'recording', 'intake', 'apps', 'worldside', 'inbox',
-            'timeline', 'clock', 'actions'} <= _imports('runner')
+def _floor(room):
+    for i, rooms in enumerate(FLOORS):
+        if room in rooms:
+            return i
+    raise AssertionError('module or sub-package %r is on no floor of FLOORS' % room)
+
+
+def test_every_room_imports_only_itself_and_the_rooms_below():
+    up = []
+    for rel, tree in _sources():
+        room = _room(rel)
+        if room == '__init__':
+            continue
+        for other in _rooms_imported(rel, tree) - {room}:
+            if _floor(other) >= _floor(room):
+                up.append('%s imports %s' % (rel, other))
+    assert up == []
+
+
+def test_the_runners_pieces_do_not_import_the_runner():
+    for rel, tree in _sources():
+        if rel == os.path.join('run', 'runner.py') or _room(rel) == 'farm':
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                assert node.module is None or not node.module.endswith('runner'), rel
 
 
 # rospy and the standard library's own, which no module of ours can reach otherwise
@@ -43,10 +92,7 @@ def test_no_module_reaches_into_another_objects_private_members():
     """The runner's pieces talk through public names: ``x._name`` only on self or cls
     (and the few library internals in LIBRARY_PRIVATE)."""
     found = []
-    for f in sorted(os.listdir(PKG)):
-        if not f.endswith('.py'):
-            continue
-        tree = ast.parse(open(os.path.join(PKG, f)).read())
+    for rel, tree in _sources():
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and node.attr.startswith('_') and \
                     not node.attr.startswith('__'):
@@ -55,7 +101,7 @@ def test_no_module_reaches_into_another_objects_private_members():
                     continue
                 text = ast.unparse(node)
                 if not any(text.startswith(ok) for ok in LIBRARY_PRIVATE):
-                    found.append('%s:%d %s' % (f, node.lineno, text))
+                    found.append('%s:%d %s' % (rel, node.lineno, text))
     assert found == []
 
 
@@ -89,7 +135,7 @@ def test_tail_of_a_log(tmp_path):
 
 
 def test_replay_uses_only_the_runners_public_api():
-    tree = ast.parse(open(os.path.join(PKG, 'replay.py')).read())
+    tree = ast.parse(open(os.path.join(PKG, "run", "replay.py")).read())
     private = sorted({n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
                       and isinstance(n.value, ast.Name) and n.value.id == 'r'
                       and n.attr.startswith('_')})
@@ -101,7 +147,8 @@ def test_replay_uses_only_the_runners_public_api():
 
 
 def test_every_scenario_action_has_its_method_in_actions():
-    from testing_instance import actions, scenario
+    from testing_instance.run import actions
+    from testing_instance.scenario import format as scenario
     names = getattr(scenario, 'ACTIONS', None)
     methods = {m[len('_act_'):] for m in vars(actions.Actions) if m.startswith('_act_')}
     assert issubclass(runner.Runner, actions.Actions)
@@ -113,7 +160,7 @@ def test_every_scenario_action_has_its_method_in_actions():
 def test_an_actions_publisher_is_woken_by_its_subscriber_connecting_not_by_polling():
     import threading
     import time
-    from testing_instance.actions import _Connected
+    from testing_instance.run.actions import _Connected
     c, n = _Connected(), [0]
 
     def connect():
@@ -136,7 +183,7 @@ def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(m
     the world took a radio switched off at sim time 0 a slice late. Publishing marks the
     next step as following inputs (Runner._step)."""
     import warnings
-    from testing_instance.actions import Actions
+    from testing_instance.run.actions import Actions
     made = []
 
     class Pub(object):
@@ -175,7 +222,7 @@ def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(emb
     import time
     from types import SimpleNamespace
     from test_stepgate import busy_receiver
-    from testing_instance.runner import Runner
+    from testing_instance.run.runner import Runner
     sock, done, th = busy_receiver('/mobile_device/wifi/enable')
     seen = []
 
@@ -342,7 +389,7 @@ def test_a_launch_imports_roslaunch_first_and_talks_only_to_the_master_it_is_giv
     import signal
     import socket
     import time
-    from testing_instance import procs
+    from testing_instance.world import procs
     env_master, given = socket.socket(), socket.socket()
     for s in (env_master, given):
         s.bind(('127.0.0.1', 0))

@@ -4,7 +4,7 @@ import pytest
 from sensor_msgs.msg import Image, Imu
 from std_msgs.msg import String
 
-from testing_instance.expect import Expectation, FieldError, Predicate, get_field
+from testing_instance.scenario.expect import Expectation, FieldError, Predicate, get_field
 
 
 def imu(z):

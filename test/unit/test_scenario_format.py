@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from testing_instance import scenario as sc
+from testing_instance.scenario import format as sc
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 EXAMPLES = sorted(glob.glob(os.path.join(ROOT, 'testing_instance', 'examples', '*.yaml')))

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from testing_instance import motion
+from testing_instance.scenario import motion
 
 
 def test_path_at_constant_speed_ends_on_the_last_waypoint():

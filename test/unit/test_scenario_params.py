@@ -1,4 +1,4 @@
-"""Scenario parameters and sweeps (testing_instance.params, .sweep): substitution, every
+"""Scenario parameters and sweeps (testing_instance.scenario.params, .sweep): substitution, every
 kind of distribution, reproducible stochastic draws, the summary, and every bad input's
 message with file and line. Synthetic files only; no roscore."""
 import json
@@ -8,9 +8,10 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from testing_instance import params as P
-from testing_instance import scenario, sweep
-from testing_instance.scenario import ScenarioError
+from testing_instance.scenario import params as P
+from testing_instance.scenario import format as scenario
+from testing_instance.farm import sweep
+from testing_instance.scenario.format import ScenarioError
 
 EX = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
     __file__)))), 'testing_instance', 'examples')
@@ -281,7 +282,7 @@ def test_sweep_main_refuses_before_anything_starts(tmp_path):
 def test_cluster_without_ray_is_one_line(tmp_path, monkeypatch):
     """Ray is optional: --cluster where it is not installed is one ERROR line, exit 2."""
     import sys
-    from testing_instance import cluster
+    from testing_instance.farm import cluster
     monkeypatch.setitem(sys.modules, 'ray', None)        # import ray -> ImportError
     path = write(tmp_path, 'parameters: {heading: 0, y: 0, temp: 20}\n' + BODY)
     a = types.SimpleNamespace(sweep=True, set=None, max_runs=None, seed=None, shard=None,

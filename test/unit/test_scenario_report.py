@@ -12,11 +12,11 @@ import pytest
 
 pytest.importorskip('rospy')
 
-from testing_instance.expect import Expectation  # noqa: E402
+from testing_instance.scenario.expect import Expectation  # noqa: E402
 from testing_instance.report import (Collector, band_of, decimate, nice_ticks,  # noqa: E402
                                      numeric_value, svg_plot, write_index, write_invalid)
-from testing_instance.runner import Result  # noqa: E402
-from testing_instance.scenario import load  # noqa: E402
+from testing_instance.run.runner import Result  # noqa: E402
+from testing_instance.scenario.format import load  # noqa: E402
 
 SCENARIO = """\
 name: synthetic

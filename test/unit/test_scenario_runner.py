@@ -4,9 +4,9 @@ import xml.etree.ElementTree as ET
 import pytest
 from sensor_msgs.msg import Imu
 
-from testing_instance import cli
-from testing_instance.expect import FieldError, Verdict
-from testing_instance.runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, _probe_field, \
+from testing_instance.farm import cli
+from testing_instance.scenario.expect import FieldError, Verdict
+from testing_instance.run.runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, _probe_field, \
     run_file, write_junit
 
 
@@ -50,7 +50,7 @@ def test_invalid_file_is_an_error_before_anything_starts(tmp_path):
 
 
 def test_pipeline_must_be_true_or_false(tmp_path):
-    from testing_instance.scenario import load
+    from testing_instance.scenario.format import load
     f = tmp_path / 'p.yaml'
     f.write_text('duration: 1\npipeline: true\n')
     assert load(str(f)).pipeline is True
@@ -77,7 +77,7 @@ def test_junit_holds_log_tails_with_colour_codes_and_control_characters(tmp_path
     """A world's log tail carries roslaunch's ANSI colours: the JUnit file stays valid XML
     (found by the process-fault tests: the file was not well-formed)."""
     import xml.etree.ElementTree as ET
-    from testing_instance.results import Result, write_junit
+    from testing_instance.scenario.results import Result, write_junit
     r = Result('s', [], 'the world died', ['\x1b[1m[spawn_phone-3] finished\x1b[0m', 'bell\x07'])
     write_junit(r, str(tmp_path / 'j.xml'))
     err = ET.parse(str(tmp_path / 'j.xml')).getroot().find('testcase/error')
@@ -85,8 +85,8 @@ def test_junit_holds_log_tails_with_colour_codes_and_control_characters(tmp_path
 
 
 def test_a_farm_run_gets_the_options_that_apply_to_each_run(tmp_path):
-    from testing_instance.cli import farm_argv
-    from testing_instance.command import parser as _parser
+    from testing_instance.farm.cli import farm_argv
+    from testing_instance.farm.command import parser as _parser
     a = _parser('run_scenario').parse_args([
         'x.yaml', '--jobs', '2', '--seed', '3', '--set', 'heading=30', '--set', 'seed=4',
         '--world-node', '--junit', str(tmp_path / 'j'), '--record', str(tmp_path / 'r')])
@@ -109,9 +109,9 @@ def test_the_world_side_of_the_subscriptions_is_awaited_in_a_namespace(monkeypat
     namespace: that node is asked, not a /sim_world that is not there."""
     import rosgraph
     import xmlrpc.client
-    from testing_instance.inbox import Inbox
-    from testing_instance.intake import Intake
-    from testing_instance.recording import Recorder
+    from testing_instance.run.inbox import Inbox
+    from testing_instance.run.intake import Intake
+    from testing_instance.run.recording import Recorder
     asked, calls = [], []
 
     class Master(object):
@@ -153,7 +153,7 @@ def test_the_start_up_is_told_by_its_phases_which_add_up_to_the_figure():
     """The start-up line's breakdown: what came before the run (the command's Python start),
     then each phase's own seconds; phases under 5 ms left out; nothing in a replay."""
     from types import SimpleNamespace
-    from testing_instance.runner import Runner
+    from testing_instance.run.runner import Runner
     r = SimpleNamespace(wall0=100.0, startup=1.5,
                         phases=[('master', 100.6), ('node and world', 101.0),
                                 ('phones', 101.002), ('first step', 101.3)])
@@ -176,10 +176,10 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
     import threading
     import time
     from types import SimpleNamespace
-    from testing_instance import runner as runner_mod
-    from testing_instance.inbox import Inbox
-    from testing_instance.results import RunError
-    from testing_instance.runner import Runner
+    from testing_instance.run import runner as runner_mod
+    from testing_instance.run.inbox import Inbox
+    from testing_instance.scenario.results import RunError
+    from testing_instance.run.runner import Runner
     order = []
     r = SimpleNamespace(inbox=Inbox(), intake=SimpleNamespace(subs={'/a': 1, '/b': 1}),
                         apps=SimpleNamespace(wait_answered=lambda wake: order.append('apps')),
@@ -216,8 +216,8 @@ def test_topics_are_looked_at_again_when_something_can_have_made_new_ones():
     the last look (at the same sim time: recordings equal the sim_world node's); after a
     spawn (topics_dirty) and while an expectation's topic is not subscribed, always."""
     from types import SimpleNamespace
-    from testing_instance.runner import TOPIC_RECHECK, Runner
-    from testing_instance.timeline import Conditions
+    from testing_instance.run.runner import TOPIC_RECHECK, Runner
+    from testing_instance.scenario.timeline import Conditions
 
     def runner(embedded, apps=(), launch_procs=()):
         r = SimpleNamespace(embedded=embedded, sc=SimpleNamespace(apps=list(apps)),

@@ -1,5 +1,5 @@
 """The runner's pure timeline: agenda order and the lockstep slice plan."""
-from testing_instance.timeline import Agenda, next_stop
+from testing_instance.scenario.timeline import Agenda, next_stop
 
 
 def test_agenda_pops_in_time_then_insertion_order_only_when_due():

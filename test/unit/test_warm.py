@@ -9,9 +9,9 @@ import types
 
 import pytest
 
-from testing_instance import warm
-from testing_instance.runner import world_key
-from testing_instance.scenario import load
+from testing_instance.farm import warm
+from testing_instance.run.runner import world_key
+from testing_instance.scenario.format import load
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 EX = os.path.join(ROOT, 'testing_instance', 'examples')
@@ -281,7 +281,7 @@ class FakeMaster(object):
 
 def leaver(tmp_path, name, linger):
     import time as _t
-    from testing_instance.procs import Proc
+    from testing_instance.world.procs import Proc
     script = tmp_path / 'leaver.py'
     script.write_text(LEAVER)
     flag = str(tmp_path / name.strip('/'))
@@ -392,8 +392,8 @@ def test_a_worker_dead_before_its_job_is_written_costs_that_job_only(tmp_path,
 def test_a_world_argument_the_launch_file_does_not_declare_is_an_error(tmp_path):
     """roslaunch ignores an undeclared argument: a misspelt world.args entry would run the
     scenario on the default without a word."""
-    from testing_instance.results import RunError
-    from testing_instance.worldside import launch_args
+    from testing_instance.scenario.results import RunError
+    from testing_instance.world.worldside import launch_args
     f = tmp_path / 'k.yaml'
     f.write_text('duration: 1\nworld: {args: {camera_rat: 30}}\n')
     with pytest.raises(RunError) as e:
@@ -408,8 +408,8 @@ def test_a_world_argument_the_launch_file_does_not_declare_is_an_error(tmp_path)
 
 
 def test_a_launch_file_without_the_runners_arguments_is_an_error(tmp_path):
-    from testing_instance.results import RunError
-    from testing_instance.worldside import declared_args, launch_args
+    from testing_instance.scenario.results import RunError
+    from testing_instance.world.worldside import declared_args, launch_args
     (tmp_path / 'w.launch').write_text(
         '<launch><arg name="paused" default="true"/><arg name="physics" default="ode"/>'
         '<arg name="real_time_factor" default="1"/><group><arg name="x" default="1"/></group>'
@@ -430,7 +430,7 @@ def test_a_launch_file_without_the_runners_arguments_is_an_error(tmp_path):
 def test_a_warm_master_whose_ports_are_taken_is_one_error_saying_how(monkeypatch, tmp_path):
     """A warm worker's master that finds its port taken starts again once on a new port;
     taken again, the worker's ERROR names the port and how it was found taken."""
-    from testing_instance.results import RunError
+    from testing_instance.scenario.results import RunError
     monkeypatch.setenv('ROS_MASTER_URI', 'http://localhost:1')
     ports = iter([24001, 24002])
     monkeypatch.setattr(warm, 'master_port', lambda: next(ports))

@@ -9,10 +9,10 @@ import types
 
 import pytest
 
-from testing_instance import procs
-from testing_instance.procs import Proc
-from testing_instance.results import RunError
-from testing_instance.worldside import WorldSide
+from testing_instance.world import procs
+from testing_instance.world.procs import Proc
+from testing_instance.scenario.results import RunError
+from testing_instance.world.worldside import WorldSide
 
 
 def _sc(**kw):

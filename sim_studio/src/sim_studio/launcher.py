@@ -1,5 +1,5 @@
 """The studio's world when it is not attached: a master at ROS_MASTER_URI if none answers
-there (testing_instance.procs.Core: rosmaster and rosout, /use_sim_time set), and the launch
+there (testing_instance.world.procs.Core: rosmaster and rosout, /use_sim_time set), and the launch
 file on it (procs.Launch: ``roslaunch --wait``), stopped together at the end
 (procs.stop_run, then the master). The same code the scenario runner starts its worlds
 with."""
@@ -38,7 +38,7 @@ class StartedWorld(object):
     """The master (if this studio started it) and the world's roslaunch."""
 
     def __init__(self, uri, launch_path, args, run_dir, timeout=120.0):
-        from testing_instance import procs
+        from testing_instance.world import procs
         self.procs = procs
         self.uri = uri
         self.core = None

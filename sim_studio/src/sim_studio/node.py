@@ -34,7 +34,7 @@ def parser():
 
 
 def _launch_path(world):
-    from testing_instance.worldside import LAUNCHES
+    from testing_instance.world.worldside import LAUNCHES
     path = LAUNCHES.get(world, world)
     if not os.path.isfile(path):
         raise SystemExit('studio: --world %s: no such launch file (office or a path)' % world)
@@ -69,7 +69,8 @@ def main(argv=None):
     def _term(_sig, _frame):
         raise KeyboardInterrupt
     signal.signal(signal.SIGTERM, _term)       # stopped like Ctrl-C: its world goes too
-    argv = rospy.myargv(sys.argv if argv is None else argv)[1:]
+    # not rospy.myargv: it drops every name:=value, and those are the launch arguments
+    argv = list(sys.argv if argv is None else argv)[1:]
     a = parser().parse_args(argv)
     bad = [x for x in a.args if ':=' not in x]
     if bad:
@@ -99,7 +100,8 @@ def main(argv=None):
             except LaunchError as e:
                 print('studio: %s' % e, flush=True)
                 return 2
-        rospy.init_node('studio', anonymous=True, disable_signals=True)
+        # argv without the launch arguments (rospy would take them as remappings)
+        rospy.init_node('studio', argv=[sys.argv[0]], anonymous=True, disable_signals=True)
         world = WorldLink(rospy, a.camera_topic)
         world.start()
         studio = Studio(world, _scene_models(rospy), rate=a.rate, camera_rate=a.camera_rate,

@@ -17,7 +17,7 @@ class WorldError(RuntimeError):
 
 
 def quat_from_rpy(r, p, y):
-    from testing_instance.motion import quat_from_rpy as q
+    from testing_instance.scenario.motion import quat_from_rpy as q
     return q(r, p, y)
 
 

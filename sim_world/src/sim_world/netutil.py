@@ -3,7 +3,7 @@ the tests and the benches share).
 
 ``free_port()``: a port the kernel has just handed out on the loopback interface (bound to
 port 0, read back, released). Another process may take it before the caller binds it: the
-callers that start a master retry once on a new port (testing_instance.runner).
+callers that start a master retry once on a new port (testing_instance.run.runner).
 ``free_port(start)``: the first port from ``start`` on (200 tried) that can be bound now,
 for callers that want ports in a known range (pytest-xdist workers, bench/camera).
 ``master_port()``: a free port for a run's own ROS master, drawn from below the kernel's

@@ -31,7 +31,7 @@ import re
 import shlex
 import time
 
-from .expect import FieldError, get_field, to_value
+from .scenario.expect import FieldError, get_field, to_value
 
 __all__ = ['Collector', 'write_index', 'write_invalid', 'svg_plot', 'numeric_value', 'nice_ticks',
            'report_image_topics']

@@ -48,7 +48,7 @@ _zero = threading.local()      # .on: the message this thread is publishing has 
 
 def zero_stamped(msg):
     """A message with a header whose stamp is zero: the testing instance times it as one
-    without a header (testing_instance.intake.stamp_of), so the world notes when it went
+    without a header (testing_instance.run.intake.stamp_of), so the world notes when it went
     out (take_times) as for a headerless one. Sensors stamp the world's time, which is zero
     at the first tick; the environment and other latched topics may leave it unset."""
     st = getattr(getattr(msg, 'header', None), 'stamp', None)

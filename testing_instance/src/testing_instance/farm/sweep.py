@@ -20,15 +20,15 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 
-from . import params as P
-from . import scenario as S
-from .scenario import ScenarioError
+from ..scenario import params as P
+from ..scenario import format as S
+from ..scenario.format import ScenarioError
 
 __all__ = ['Run', 'plan', 'run_local', 'summarise', 'write_outputs', 'main', 'NODE',
            'verdict_lines', 'run_command']
 
-NODE = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
-    __file__)))), 'nodes', 'run_scenario')
+NODE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..', 'nodes',
+                    'run_scenario')      # testing_instance/nodes/run_scenario
 EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 STATUS = {EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}
 _VERDICT = re.compile(r'^(PASS|FAIL|ERROR) (\w+): ', re.M)
@@ -160,7 +160,7 @@ class Layout(object):
         """The farm index page over the runs' reports (nothing without --report)."""
         if not self.report:
             return
-        from .report import write_farm_index
+        from ..report import write_farm_index
         write_farm_index(self.report, [dict(name=r['name'], status=r['status'], wall=r['wall'],
                                             report=self.report_of(r['run'])) for r in results],
                          wall, out)
@@ -173,7 +173,7 @@ class Layout(object):
 
 
 def run_local(runs, jobs, layout, rtf=None, out=print, warm=True):
-    """The runs ``jobs`` at a time (testing_instance.warm.Pool: warm worlds; ``warm=False``
+    """The runs ``jobs`` at a time (testing_instance.farm.warm.Pool: warm worlds; ``warm=False``
     each in its own run_scenario process and master)."""
     from .warm import Pool
     results = []

@@ -26,12 +26,12 @@ from sim_world.netutil import master_port, wait_for_service
 
 from . import procs
 from .procs import poll, tail
-from .results import RunError
+from ..scenario.results import RunError
 
 __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
 
 PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
-                                         '..', '..', '..'))
+                                         '..', '..', '..', '..'))
 MASTER_GRACE = 15.0    # s an attached run waits for ROS_MASTER_URI's master to answer
 LAUNCHES = {
     'office': os.path.join(PKG_ROOT, 'sim_world', 'launch', 'office.launch'),

@@ -45,7 +45,7 @@ class Recorder(object):
     def open(self, paths):
         """Start recording to ``paths``; mcap_io.RecordingError if a file cannot be made."""
         from rospy import Time
-        from .mcap_io import GuardedWriter
+        from ..io.mcap_io import GuardedWriter
         self._time = Time.from_sec
         self._writer = GuardedWriter(paths)
 

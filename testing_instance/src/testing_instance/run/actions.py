@@ -8,8 +8,8 @@ proxies, publishers and agenda.
 import subprocess
 import threading
 
-from . import motion
-from .results import RunError
+from ..scenario import motion
+from ..scenario.results import RunError
 
 __all__ = ['Actions']
 

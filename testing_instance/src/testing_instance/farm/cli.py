@@ -4,7 +4,7 @@ import sys
 import time
 
 from .command import expand, parser, run_one
-from .runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS
+from ..run.runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS
 
 __all__ = ['main', 'replay_main', 'farm']
 
@@ -13,7 +13,7 @@ def check(files, sets=(), max_runs=None, out=print):
     """run_scenario --check FILE...: validate as a linter would (roslaunch --files style),
     nothing started. Each file: every concrete run of its sweep is substituted and validated.
     Exit 0 when all are valid, 2 otherwise (the FILE:LINE messages printed)."""
-    from .scenario import ScenarioError
+    from ..scenario.format import ScenarioError
     from .sweep import plan
     if not files:
         out('ERROR no scenario files given')
@@ -24,7 +24,7 @@ def check(files, sets=(), max_runs=None, out=print):
             if not os.path.isfile(f):
                 raise ScenarioError(['%s: no such file' % f])
             runs = plan([f], sweep=True, sets=sets, max_runs=max_runs)
-            from .scenario import load
+            from ..scenario.format import load
             for r in runs:
                 load(f, values=dict(r.values) or None)
         except ScenarioError as e:
@@ -50,7 +50,7 @@ def _shard(files, spec):
 def main(argv=None, prog='run_scenario'):
     import rospy
     argv = rospy.myargv(sys.argv if argv is None else argv)[1:]
-    if argv == ['--warm-worker']:       # a farm's worker (testing_instance.warm)
+    if argv == ['--warm-worker']:       # a farm's worker (testing_instance.farm.warm)
         from .warm import worker_main
         _graph_gone[0] = True
         return worker_main()
@@ -149,7 +149,7 @@ def farm_argv(f, a):
 
 
 def farm(files, jobs, a, out=print):
-    """Run every file ``jobs`` at a time (testing_instance.warm.Pool: warm worlds, or with
+    """Run every file ``jobs`` at a time (testing_instance.farm.warm.Pool: warm worlds, or with
     --cold a run_scenario process and master per file); print a summary table. Exit: the
     worst of the runs."""
     from .warm import Pool
@@ -183,7 +183,7 @@ def farm(files, jobs, a, out=print):
 
 
 def _farm_index(report, results, wall, out):
-    from .report import write_farm_index
+    from ..report import write_farm_index
     runs = [dict(name=os.path.splitext(os.path.basename(f))[0],
                  status={EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}.get(rc, 'ERROR'), wall=w,
                  report=os.path.join(report, os.path.splitext(os.path.basename(f))[0]))

@@ -23,22 +23,14 @@ import time
 
 from sim_world import transport
 
-from .procs import poll
+from ..world.procs import outbound, poll
 from .recording import EVENTS_TOPIC, HEAVY_TYPES
 
 #: wall s a new subscription of the runner's may take to connect (both sides) before the run
 #: says so and goes on without it
 CONNECT_WAIT = 10.0
 
-__all__ = ['Intake', 'outbound', 'stamp_of']
-
-
-def outbound(node, caller):
-    """{(subscriber, topic)} of a node's outbound connections: its publishers' subscribers
-    as the node itself counts them (``node``: an xmlrpc ServerProxy of its slave API,
-    asked getBusInfo as ``caller``). Raises what the call raises (the node is gone)."""
-    _c, _m, info = node.getBusInfo(caller)
-    return {(c[1], c[4]) for c in info if len(c) > 4 and c[2] == 'o'}
+__all__ = ['Intake', 'stamp_of']
 
 
 def stamp_of(msg):

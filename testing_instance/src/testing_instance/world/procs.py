@@ -15,10 +15,18 @@ from sim_world.netutil import free_port  # noqa: F401 - the one copy, re-exporte
 
 __all__ = ['Core', 'Launch', 'PreApp', 'Proc', 'STOP_GRACE', 'launch_env', 'stop_run', 'age',
            'alive', 'cmdline', 'deaf_warning', 'descendants', 'first_run', 'free_port',
-           'frozen_tree', 'kill_tree',
+           'frozen_tree', 'kill_tree', 'outbound',
            'read_chars', 'ros_env', 'rss_kb', 'socket_inodes', 'state', 'tail',
            'receivers_busy', 'tcp_queues', 'TcpQueues', 'thread_runs', 'thread_states',
            'world_node']
+
+
+def outbound(node, caller):
+    """{(subscriber, topic)} of a node's outbound connections: its publishers' subscribers
+    as the node itself counts them (``node``: an xmlrpc ServerProxy of its slave API,
+    asked getBusInfo as ``caller``). Raises what the call raises (the node is gone)."""
+    _c, _m, info = node.getBusInfo(caller)
+    return {(c[1], c[4]) for c in info if len(c) > 4 and c[2] == 'o'}
 
 
 def poll(cond, deadline, first=0.001, most=0.02):
@@ -279,16 +287,16 @@ EMPTY_ROSCORE = """<launch>
 
 
 #: the child of Launch: roslaunch's imports first, then its master's URI from stdin
-#: (testing_instance.preapp.until_told, as a prestarted app waits)
+#: (testing_instance.world.preapp.until_told, as a prestarted app waits)
 PRELAUNCH = """\
 import sys
 sys.path.insert(0, %r)          # testing_instance/src: this package, nothing else
-from testing_instance.preapp import until_told
+from testing_instance.world.preapp import until_told
 until_told(lambda: __import__('roslaunch'))
 import roslaunch
 sys.argv[0] = 'roslaunch'
 roslaunch.main()
-""" % os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+""" % os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 class _Told(Proc):
@@ -335,7 +343,7 @@ PREAPP = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'preapp.py')
 class PreApp(_Told):
     """A scenario's Python app (``script`` with its command-line ``args``), started before
     the run's world is ready: it imports what the script imports at its top, then waits for
-    :meth:`go` and runs the script (testing_instance.preapp). Its stdin stays open while
+    :meth:`go` and runs the script (testing_instance.world.preapp). Its stdin stays open while
     it runs: it is SIGKILLed a few seconds after the runner dies (preapp.watch_runner)."""
 
     KEEP_STDIN = True

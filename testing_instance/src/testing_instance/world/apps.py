@@ -15,9 +15,8 @@ import re
 import time
 
 from .appwatch import AppHung, AppWatch
-from .intake import outbound
-from .procs import PreApp, Proc, poll, tail
-from .results import RunError
+from .procs import PreApp, Proc, outbound, poll, tail
+from ..scenario.results import RunError
 
 __all__ = ['Apps', 'python_node']
 

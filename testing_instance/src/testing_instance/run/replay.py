@@ -17,9 +17,9 @@ import time
 
 from .clock import ReplayClock
 from .intake import stamp_of
-from .procs import poll
+from ..world.procs import poll
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
-from .results import RunError
+from ..scenario.results import RunError
 
 __all__ = ['replay_run', 'read_meta', 'load_recording', 'Loaded']
 
@@ -67,7 +67,7 @@ def load_recording(path):
     starts. A file that cannot be replayed raises RecordingError with one line naming the file
     and what is wrong; a damaged file whose start is readable (cut short, a message that does
     not decode) gives what was read before the damage and ``warning``."""
-    from .mcap_io import RecordingError, open_reader
+    from ..io.mcap_io import RecordingError, open_reader
     bag = open_reader(path)
     rows, damage = [], None
     try:
@@ -137,7 +137,7 @@ def load_recording(path):
 def replay_run(r):
     import rospy
     from rosgraph_msgs.msg import Clock
-    from .mcap_io import RecordingError
+    from ..io.mcap_io import RecordingError
     try:       # a rosbag or an MCAP file (told by its first bytes), read before anything starts
         rec = load_recording(r.replay)
     except RecordingError as e:

@@ -20,7 +20,7 @@ import os
 
 from . import procs
 from .procs import Proc
-from .results import RunError
+from ..scenario.results import RunError
 
 __all__ = ['LaunchPlan', 'plan_launch', 'WORLD_NODE']
 

@@ -37,19 +37,19 @@ import time
 
 from sim_world import transport
 
-from . import procs
+from ..world import procs
 from .actions import Actions, _set_field  # noqa: F401 - re-exported
-from .apps import Apps
+from ..world.apps import Apps
 from .clock import WorldClock
-from .expect import Expectation, FieldError, Verdict  # noqa: F401 - Verdict re-exported
+from ..scenario.expect import Expectation, FieldError, Verdict  # noqa: F401 - Verdict re-exported
 from .inbox import Inbox
 from .intake import Intake
-from .procs import free_port  # noqa: F401 - re-exported
+from ..world.procs import free_port  # noqa: F401 - re-exported
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC, Recorder  # noqa: F401
-from .results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
-from .scenario import ScenarioError, load
-from .timeline import Agenda, ConditionError, Conditions, next_stop
-from .worldside import (LAUNCHES, PKG_ROOT, WorldSide,  # noqa: F401 - re-exported
+from ..scenario.results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
+from ..scenario.format import ScenarioError, load
+from ..scenario.timeline import Agenda, ConditionError, Conditions, next_stop
+from ..world.worldside import (LAUNCHES, PKG_ROOT, WorldSide,  # noqa: F401 - re-exported
                         launch_args, start_pose, world_key)
 
 MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
@@ -150,7 +150,7 @@ class Runner(Actions):
 
     def open_recording(self):
         """--record: .bag a rosbag, .mcap an MCAP file (ROS 1), a list all of them."""
-        from .mcap_io import RecordingError
+        from ..io.mcap_io import RecordingError
         try:
             self.recorder.open(self.record_path)
         except RecordingError as e:
@@ -215,14 +215,17 @@ class Runner(Actions):
         self.step_srv = self.world.step_srv
 
     def _spawn_more_phones(self):
-        """The scenario's phones after the first (which the launch file spawns). An
-        attached world may have them already (a .test file that spawns both): kept."""
+        """The scenario's phones after the first (which the launch file spawns): each the one
+        description (mobile_device.urdf.xacro with the phone's ``args``, no ``ns``) spawned
+        as model ``ns`` with robot_namespace ``/ns``, gazebo_ros's way to several robots
+        (sim_world.spawn). An attached world may have them already (a .test file that
+        spawns both): kept."""
         for ph in self.sc.phones[1:]:
             if self.attach and self.world.has_model(ph['ns']):
                 continue
             xacro = os.path.join(PKG_ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
             self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
-                        ph['ns'], dict({'ns': ph['ns']}, **(ph.get('args') or {})))
+                        '/' + ph['ns'].strip('/'), dict(ph.get('args') or {}))
 
     def check_world(self):
         """Every process of the run still there? An error naming the first one that is not,
@@ -464,7 +467,7 @@ class Runner(Actions):
             self.by_topic.setdefault(e.topic, []).append(e)
         self.agenda = Agenda()
         if self.report_dir:
-            from .report import Collector
+            from ..report import Collector
             self.collector = Collector(self, self.report_dir, 'replay' if self.replay else 'live')
         error, log = None, []
         watchdog = threading.Timer(self.sc.timeout, self._on_timeout)
@@ -753,7 +756,7 @@ def _probe_field(proto, path):
 def run_file(path, **kw):
     """Load and run one scenario file; ScenarioError -> an ERROR result (exit code 2)."""
     out = kw.get('out') or (lambda s: (sys.stdout.write(s + '\n'), sys.stdout.flush()))
-    values = kw.pop('values', None)       # --set NAME=VALUE (testing_instance.params)
+    values = kw.pop('values', None)       # --set NAME=VALUE (testing_instance.scenario.params)
     try:
         sc = load(path, values=values)
     except ScenarioError as e:
@@ -765,7 +768,7 @@ def run_file(path, **kw):
         if kw.get('junit'):
             write_junit(res, kw['junit'])
         if kw.get('report'):
-            from .report import write_invalid
+            from ..report import write_invalid
             write_invalid(kw['report'], path, e.problems, out)
         return res
     return Runner(sc, **kw).run()

@@ -1,5 +1,5 @@
 """One run_scenario command line: its parser, and running it in this process (a single run,
-or a farm worker's job: testing_instance.warm). Below the command line's other jobs (cli:
+or a farm worker's job: testing_instance.farm.warm). Below the command line's other jobs (cli:
 farms, sweeps, clusters, checks), so a farm's worker needs nothing above it."""
 import argparse
 import glob
@@ -7,8 +7,8 @@ import os
 import shutil
 import time
 
-from .runner import EXIT_ERROR, run_file
-from .yamlsrc import ScenarioError
+from ..run.runner import EXIT_ERROR, run_file
+from ..scenario.yamlsrc import ScenarioError
 
 __all__ = ['expand', 'parser', 'prepare_argv', 'record_arg', 'run_argv', 'run_one',
            'values_of', 'world_key_of']
@@ -51,7 +51,7 @@ def parser(prog):
                    'master and world for every scenario instead of warm worlds')
     p.add_argument('--shard', metavar='I/N', help='run only the I-th of N shares of the files '
                    '(0-based; a CI matrix or several machines)')
-    # sweeps and the Ray farm (testing_instance.sweep / .cluster, issue 21)
+    # sweeps and the Ray farm (testing_instance.farm.sweep / .cluster, issue 21)
     p.add_argument('--sweep', action='store_true', help='run every concrete run of the '
                    'files\' sweep: blocks (a pass-rate summary, a command per failure)')
     p.add_argument('--set', action='append', metavar='NAME=VALUE', help='set a parameter '
@@ -96,14 +96,14 @@ def values_of(a, path):
     """--set NAME=VALUE of parsed arguments ``a`` for file ``path`` (None without)."""
     if not a.set:
         return None
-    from .params import declared, parse_set
-    from .yamlsrc import read
+    from ..scenario.params import declared, parse_set
+    from ..scenario.yamlsrc import read
     return parse_set(a.set, declared(read(path), path), path)
 
 
 def run_argv(argv, warm=None, out=None, on_start=None):
     """Run one run_scenario command line (a single scenario) in this process, in the warm
-    world ``warm`` (a testing_instance.warm.WarmHost); the exit code. ``on_start()`` is
+    world ``warm`` (a testing_instance.farm.warm.WarmHost); the exit code. ``on_start()`` is
     called when the scenario reaches sim time 0."""
     a = parser('run_scenario').parse_args(list(argv))
     res = run_one(a, expand(a.files)[0], out=out, warm=warm, on_start=on_start)
@@ -114,8 +114,8 @@ def prepare_argv(argv, warm):
     """Make the warm world ``warm`` (a WarmHost) hold the world that run_scenario command
     line's scenario needs, launched and answering, without running it (a farm's spare
     worker launches the next world while another worker runs)."""
-    from . import procs
-    from .runner import Runner
+    from ..world import procs
+    from ..run.runner import Runner
     procs.first_run()      # its first scenario's start-up counts from its job, not from here
     a, sc = _scenario_of(argv)
     r = Runner(sc, seed=a.seed, real_time_factor=a.rtf, report=a.report, warm=warm,
@@ -139,8 +139,8 @@ def run_one(a, path, out=None, **kw):
 
 
 def world_key_of(argv):
-    """The world (testing_instance.worldside.world_key) a run_scenario command line needs."""
-    from .worldside import world_key
+    """The world (testing_instance.world.worldside.world_key) a run_scenario command line needs."""
+    from ..world.worldside import world_key
     a, sc = _scenario_of(argv)
     return world_key(sc, a.report)
 
@@ -148,7 +148,7 @@ def world_key_of(argv):
 def _scenario_of(argv):
     """The parsed arguments of a run_scenario command line and its (first) scenario,
     loaded with its --set values."""
-    from .scenario import load
+    from ..scenario.format import load
     a = parser('run_scenario').parse_args(list(argv))
     path = expand(a.files)[0]
     return a, load(path, values=values_of(a, path))

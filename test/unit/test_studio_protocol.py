@@ -211,7 +211,7 @@ def test_recording_makes_a_scenario_run_scenario_check_accepts(tmp_path):
     assert 'play' not in y.split('timeline:')[1]
     assert 'duration: 2.5' in y
     assert check(y) == []
-    from testing_instance.cli import check as cli_check
+    from testing_instance.farm.cli import check as cli_check
     f = tmp_path / 'rec.yaml'
     f.write_text(y)
     out = []

@@ -113,8 +113,8 @@ class Recorder(object):
 
 def check(text, path='studio.yaml'):
     """The validator's problems of scenario text, 'FILE:LINE: where: what' ([] = valid):
-    testing_instance.scenario.loads, as run_scenario --check."""
-    from testing_instance.scenario import ScenarioError, loads
+    testing_instance.scenario.format.loads, as run_scenario --check."""
+    from testing_instance.scenario.format import ScenarioError, loads
     try:
         loads(text, path)
     except ScenarioError as e:

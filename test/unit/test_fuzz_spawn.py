@@ -42,12 +42,42 @@ NASTY_NUMBERS = ['nan', 'NaN', 'inf', '-inf', '1e308', '-1e308', '1e-308', '0', 
                  '1e', '--1', '9' * 400]
 
 
+# articulated models (issue 48): every joint type, limits, dynamics, mimic, a massless link
+_INERTIAL = ('<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"/>'
+             '</inertial><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>')
+ARTICULATED_URDF = '''<robot name="arm">
+<link name="base">%(i)s</link><link name="upper">%(i)s</link><link name="lower">%(i)s</link>
+<link name="slide">%(i)s</link><link name="flange"/><link name="tool">%(i)s</link>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+<origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="20" velocity="2"/>
+<dynamics damping="0.1" friction="0.05"/></joint>
+<joint name="elbow" type="continuous"><parent link="upper"/><child link="lower"/>
+<origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><mimic joint="shoulder" multiplier="2"/></joint>
+<joint name="rail" type="prismatic"><parent link="lower"/><child link="slide"/>
+<origin xyz="0 0 0.3"/><axis xyz="0 0 1"/><limit lower="0" upper="0.1" effort="5" velocity="1"/></joint>
+<joint name="mount" type="fixed"><parent link="slide"/><child link="flange"/></joint>
+<joint name="wrist" type="revolute"><parent link="flange"/><child link="tool"/>
+<axis xyz="1 0 0"/><limit lower="-0.5" upper="0.5" effort="1" velocity="1"/></joint>
+</robot>''' % {'i': _INERTIAL}
+ARTICULATED_SDF = '''<sdf version="1.6"><model name="door">
+<link name="post"><inertial><mass>5</mass></inertial>
+<collision name="c"><geometry><box><size>0.1 0.1 2</size></box></geometry></collision></link>
+<link name="leaf"><pose>0.5 0 0 0 0 0</pose><inertial><mass>10</mass></inertial>
+<collision name="c"><geometry><box><size>0.9 0.04 2</size></box></geometry></collision></link>
+<joint name="hinge" type="revolute"><parent>post</parent><child>leaf</child>
+<pose>-0.45 0 0 0 0 0</pose><axis><xyz>0 0 1</xyz><limit><lower>0</lower><upper>1.5</upper>
+<effort>20</effort><velocity>1</velocity></limit><dynamics><damping>0.5</damping>
+<friction>0.1</friction></dynamics></axis></joint></model></sdf>'''
+
+
 @functools.lru_cache(maxsize=None)
 def sources():
     """[(kind, name, xml text)]: the models the fuzzer mutates."""
     out = []
     for f in ('mobile_device.urdf.xacro', 'mobile_device_2011.urdf.xacro', 'flycam.urdf.xacro'):
         out.append(('urdf', f, process_xacro(os.path.join(URDF, f))))
+    out.append(('urdf', 'articulated.urdf', ARTICULATED_URDF))
+    out.append(('sdf', 'articulated.sdf', ARTICULATED_SDF))
     for w in WORLDS:
         root = ET.parse(w).getroot()
         for el in root.iter():     # a spawned SDF model resolves files against sim_world's
@@ -78,7 +108,7 @@ def _mutate_tree(text, draw):
     els = _elements(root)
     kind = draw(st.sampled_from(['number', 'number', 'number', 'attr_junk', 'text_junk',
                                  'remove', 'duplicate', 'rename_ref', 'unknown', 'nest',
-                                 'unicode_name', 'mass', 'inertia', 'size']))
+                                 'unicode_name', 'mass', 'inertia', 'size', 'joint']))
     if kind in ('number', 'attr_junk'):
         withattrs = [(e, k) for e in els for k in e.attrib]
         withtext = [e for e in els if (e.text or '').strip() and len(e) == 0]
@@ -121,6 +151,8 @@ def _mutate_tree(text, draw):
         e.append(ET.Comment('NEST'))
         return ET.tostring(root, encoding='unicode').replace(
             '<!--NEST-->', '<%s>' % tag * depth + '</%s>' % tag * depth)
+    elif kind == 'joint':
+        _mutate_joint(root, els, draw)
     elif kind == 'unicode_name':
         named = [e for e in els if 'name' in e.attrib]
         if named:
@@ -164,6 +196,78 @@ def _mutate_tree(text, draw):
     return ET.tostring(root, encoding='unicode')
 
 
+JOINT_MUTATIONS = ['zero_axis', 'nan_limit', 'lower_above_upper', 'effort', 'gains', 'loop',
+                   'mimic_cycle', 'unknown_parent', 'unknown_child', 'duplicate_name', 'type']
+
+
+def _mutate_joint(root, els, draw):
+    """One joint made wrong the ways issue 48 lists (URDF and SDF spellings)."""
+    joints = [e for e in els if e.tag == 'joint']
+    if not joints:
+        return
+    j = draw(st.sampled_from(joints))
+    what = draw(st.sampled_from(JOINT_MUTATIONS))
+    sdf = j.find('parent') is not None and 'link' not in j.find('parent').attrib
+    axis = j.find('axis')
+    if what == 'zero_axis':
+        if axis is None:
+            axis = ET.SubElement(j, 'axis')
+        if sdf:
+            (axis.find('xyz') if axis.find('xyz') is not None
+             else ET.SubElement(axis, 'xyz')).text = '0 0 0'
+        else:
+            axis.set('xyz', '0 0 0')
+    elif what in ('nan_limit', 'lower_above_upper', 'effort'):
+        vals = {'nan_limit': ('nan', '1'), 'lower_above_upper': ('1', '-1'),
+                'effort': ('-1', '1')}[what]
+        if sdf:
+            lim = (axis if axis is not None else ET.SubElement(j, 'axis')).find('limit')
+            lim = lim if lim is not None else ET.SubElement(j.find('axis'), 'limit')
+            for tag, v in zip(('lower', 'upper'), vals):
+                (lim.find(tag) if lim.find(tag) is not None else ET.SubElement(lim, tag)).text = v
+            if what == 'effort':
+                (lim.find('effort') if lim.find('effort') is not None
+                 else ET.SubElement(lim, 'effort')).text = '1e9'
+        else:
+            lim = j.find('limit') if j.find('limit') is not None else ET.SubElement(j, 'limit')
+            lim.set('lower', vals[0])
+            lim.set('upper', vals[1])
+            lim.set('effort', '1e9' if what == 'effort' else lim.get('effort', '1'))
+            lim.set('velocity', lim.get('velocity', '1'))
+    elif what == 'gains':
+        dyn = j.find('dynamics') if j.find('dynamics') is not None else ET.SubElement(j, 'dynamics')
+        dyn.set('damping', draw(st.sampled_from(['1e6', '1e9', '-1', 'nan'])))
+        dyn.set('friction', draw(st.sampled_from(['1e6', '1e9', '-1', '0'])))
+    elif what == 'loop':        # a joint from a leaf back to the root
+        k = ET.fromstring(ET.tostring(j))
+        k.set('name', 'loop')
+        links = [e.get('name') for e in els if e.tag == 'link']
+        for tag, v in (('parent', links[-1]), ('child', links[0])):
+            el = k.find(tag)
+            if el is not None:
+                if sdf:
+                    el.text = v
+                else:
+                    el.set('link', v)
+        root.append(k)
+    elif what == 'mimic_cycle' and len(joints) > 1:
+        a, b = joints[0], joints[1]
+        ET.SubElement(a, 'mimic').set('joint', b.get('name'))
+        ET.SubElement(b, 'mimic').set('joint', a.get('name'))
+    elif what in ('unknown_parent', 'unknown_child'):
+        el = j.find(what.split('_')[1])
+        if el is not None:
+            if sdf:
+                el.text = 'nope'
+            else:
+                el.set('link', 'nope')
+    elif what == 'duplicate_name' and len(joints) > 1:
+        joints[1].set('name', joints[0].get('name'))
+    elif what == 'type':
+        j.set('type', draw(st.sampled_from(['floating', 'planar', 'ball', 'hinge', '',
+                                            'continuous', 'fixed', 'prismatic'])))
+
+
 def _value(old, draw, junk=False):
     if junk:
         return draw(st.text(max_size=30))
@@ -200,6 +304,10 @@ def world_is_sane(world, steps=60):
         assert np.all(np.isfinite(pose.p)) and np.all(np.isfinite(pose.q)), (name, pose)
         lin, ang = world.physics.model_twist(name)
         assert np.all(np.isfinite(lin)) and np.all(np.isfinite(ang)), (name, lin, ang)
+        for ln, lp in world.physics.link_poses(name).items():     # articulated links too
+            assert np.all(np.isfinite(lp.p)) and np.all(np.isfinite(lp.q)), (name, ln, lp)
+        for jn, (q, v) in world.physics.joint_states(name).items():
+            assert math.isfinite(q) and math.isfinite(v), (name, jn, q, v)
 
 
 def check_spawn(world, kind, xml, name='fuzzed'):
@@ -361,3 +469,39 @@ def test_fuzzed_xacro_sources_load_or_are_one_model_error(tmp_path_factory, data
         load_urdf_file(path)
     except ModelError as e:
         assert str(e).strip(), e
+
+
+@pytest.mark.parametrize('mutation', JOINT_MUTATIONS)
+@pytest.mark.parametrize('source', ['articulated.urdf', 'articulated.sdf'])
+def test_each_bad_joint_is_refused_or_warned_by_name(world, source, mutation, caplog):
+    """Issue 48's list, one at a time: refused with a message naming the joint (or its
+    link), or spawned with a warning naming it; the world keeps stepping with finite poses."""
+    import logging
+    kind, _, text = next(s for s in sources() if s[1] == source)
+    root = ET.fromstring(text)
+    els = _elements(root)
+    joints = [e for e in els if e.tag == 'joint']
+    picks = iter([joints[0], mutation])     # the first joint, this mutation, then first choices
+
+    def draw(strategy):
+        try:
+            return next(picks)
+        except StopIteration:
+            return _first(strategy)
+    _mutate_joint(root, els, draw)
+    xml = ET.tostring(root, encoding='unicode')
+    with caplog.at_level(logging.WARNING):
+        ok, msg = check_spawn(world, kind, xml, name='bad_joint')
+    if mutation in ('mimic_cycle', 'lower_above_upper') and ok:
+        assert 'cycle' in caplog.text or 'ignored' in caplog.text or kind == 'sdf'
+    if not ok:
+        assert any(n in msg for n in ("'shoulder'", "'hinge'", "'loop'", "'nope'", 'joint',
+                                      "'base'", "'post'", 'root link')), msg
+
+
+def _first(strategy):
+    """The first value of a sampled_from / booleans strategy (deterministic picks)."""
+    elems = getattr(strategy, 'elements', None)
+    if elems is not None:
+        return list(elems)[0]
+    return False

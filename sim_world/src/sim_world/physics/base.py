@@ -689,7 +689,7 @@ class PhysicsEngine(object):
             js.damping = float(damping)
         if friction is not None:
             js.friction = float(friction)
-            self._apply_friction(rec, js)
+        self._apply_friction(rec, js)
         rec.art.refresh()
 
     def _joint_step(self):
@@ -706,9 +706,13 @@ class PhysicsEngine(object):
                 j = js.joint
                 e = truncate_effort(js.applied(), v, j.effort, j.velocity) if js.efforts \
                     else 0.0
-                e -= js.damping * v
                 if e:
                     self._joint_force(rec, js, e)
+                if js.damping > 0:
+                    # viscous damping through the joint's velocity-0 motor (with the
+                    # friction): it gives -damping * v, but never more than stops the joint
+                    # in one step, so a stiff damping (1e6 on a light link) cannot blow up
+                    self._set_motor(rec, js, js.friction + js.damping * abs(v))
             art.refresh()
 
     def _reset_joints(self, rec):

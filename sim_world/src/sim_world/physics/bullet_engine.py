@@ -245,9 +245,12 @@ class BulletEngine(PhysicsEngine):
     def _apply_friction(self, rec, js):
         # the default velocity motor of every joint, with the joint's friction as its force:
         # zero friction switches it off
+        self._set_motor(rec, js, js.friction)
+
+    def _set_motor(self, rec, js, fmax):
         p.setJointMotorControl2(rec.native['body'], rec.art.groups[js.group].native,
                                 p.VELOCITY_CONTROL, targetVelocity=0.0,
-                                force=float(js.friction), physicsClientId=self._c)
+                                force=float(fmax), physicsClientId=self._c)
 
     def _group_pose(self, rec, gi):
         if gi == 0:

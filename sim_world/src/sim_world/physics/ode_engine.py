@@ -189,9 +189,11 @@ class OdeEngine(PhysicsEngine):
         self._dirty = True
 
     def _apply_friction(self, rec, js):
-        oj = js.native
-        oj.setParam(ode.ParamVel, 0.0)
-        oj.setParam(PARAM_FMAX, float(js.friction))
+        js.native.setParam(ode.ParamVel, 0.0)
+        self._set_motor(rec, js, js.friction)
+
+    def _set_motor(self, rec, js, fmax):
+        js.native.setParam(PARAM_FMAX, float(fmax))
 
     def _group_pose(self, rec, gi):
         b = rec.art.groups[gi].native

@@ -112,6 +112,7 @@ class Articulation(object):
         self.link_group = link_group  # {link name: (group index, pose in the group frame)}
         self.welded = welded
         self.needs_step = False       # efforts or damping to apply before a step
+        self.moving = [js for js in joints.values() if js.movable]
 
     def refresh(self):
         self.needs_step = any(js.efforts or js.damping > 0 for js in self.joints.values())

@@ -699,10 +699,10 @@ class PhysicsEngine(object):
             art = rec.art
             if art is None or not art.needs_step:
                 continue
-            for js in art.joints.values():
-                if not js.movable or not (js.efforts or js.damping > 0):
+            for js in art.moving:
+                if not (js.efforts or js.damping > 0):
                     continue
-                _, v = self._joint_pos_vel(rec, js)
+                v = self._joint_vel(rec, js)
                 j = js.joint
                 e = truncate_effort(js.applied(), v, j.effort, j.velocity) if js.efforts \
                     else 0.0

@@ -278,6 +278,10 @@ class BulletEngine(PhysicsEngine):
         q, v = p.getJointState(bid, li, physicsClientId=self._c)[:2]
         p.resetJointState(bid, li, q, v + dv, physicsClientId=self._c)
 
+    def _joint_vel(self, rec, js):
+        return p.getJointState(rec.native['body'], rec.art.groups[js.group].native,
+                               physicsClientId=self._c)[1]
+
     def _joint_force(self, rec, js, effort):
         p.setJointMotorControl2(rec.native['body'], rec.art.groups[js.group].native,
                                 p.TORQUE_CONTROL, force=float(effort), physicsClientId=self._c)

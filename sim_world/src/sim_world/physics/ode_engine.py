@@ -245,6 +245,11 @@ class OdeEngine(PhysicsEngine):
             b.setAngularVel(tuple(float(x) for x in ang))
             b.enable()
 
+    def _joint_vel(self, rec, js):
+        if js.joint.type == 'prismatic':
+            return js.native.getPositionRate()
+        return js.native.getAngleRate()
+
     def _joint_force(self, rec, js, effort):
         if js.joint.type == 'prismatic':
             js.native.addForce(float(effort))

@@ -20,9 +20,6 @@ Joint names: ``model::joint`` or a joint name unique in the world. Bad input ans
 ``success: false`` with a ``status_message`` naming the joint, link or model, and logs one
 line; the world keeps running.
 """
-import math
-
-import numpy as np
 import rospy
 from geometry_msgs.msg import Pose as PoseMsg
 
@@ -37,8 +34,8 @@ from mobile_device_sim.srv import (ApplyJointEffort, ApplyJointEffortResponse,
                                    SetLinkStateResponse, SetModelConfiguration,
                                    SetModelConfigurationResponse)
 
-from . import transport
-from .transforms import InvalidPose, Pose
+from . import srvcheck, transport
+from .transforms import InvalidPose
 
 __all__ = ['JointRosApi', 'find_joint', 'find_link']
 
@@ -144,11 +141,12 @@ class JointRosApi(object):
     @staticmethod
     def _fail(res, what, text):
         res.success = False
-        res.status_message = '%s: %s' % (what, text)
+        res.status_message = srvcheck.one_line('%s: %s' % (what, text))
         rospy.logwarn(res.status_message)
         return res
 
     # -- joints ----------------------------------------------------------------------------
+    @srvcheck.answers(GetJointPropertiesResponse, 'GetJointProperties', log='warn')
     def get_joint_properties(self, req):
         res = GetJointPropertiesResponse()
         w = self.world
@@ -171,6 +169,7 @@ class JointRosApi(object):
         res.status_message = 'GetJointProperties: got properties'
         return res
 
+    @srvcheck.answers(SetJointPropertiesResponse, 'SetJointProperties', log='warn')
     def set_joint_properties(self, req):
         res = SetJointPropertiesResponse()
         c = req.ode_joint_config
@@ -198,6 +197,7 @@ class JointRosApi(object):
         res.status_message = 'SetJointProperties: properties set'
         return res
 
+    @srvcheck.answers(ApplyJointEffortResponse, 'ApplyJointEffort', log='warn')
     def apply_joint_effort(self, req):
         res = ApplyJointEffortResponse()
         w = self.world
@@ -209,9 +209,12 @@ class JointRosApi(object):
             if not j.movable or not _simulated(w, mname, j.name):
                 return self._fail(res, 'ApplyJointEffort', 'joint %r of model %r is not a '
                                   'simulated movable joint' % (j.name, mname))
-            if not math.isfinite(req.effort):
-                return self._fail(res, 'ApplyJointEffort', 'joint %r: effort %r is not '
-                                  'finite' % (j.name, req.effort))
+            # 1e300 N m on a joint without an effort limit aborted ODE (the body flew off)
+            try:
+                srvcheck.number(req.effort, 'effort', -srvcheck.MAX_EFFORT,
+                                srvcheck.MAX_EFFORT, 'N or N m')
+            except srvcheck.BadRequest as e:
+                return self._fail(res, 'ApplyJointEffort', 'joint %r: %s' % (j.name, e))
             dt = w.physics.step_size
             duration = req.duration.to_sec()
             if duration == 0:
@@ -227,6 +230,7 @@ class JointRosApi(object):
         res.status_message = 'ApplyJointEffort: effort set'
         return res
 
+    @srvcheck.answers(JointRequestResponse, 'ClearJointForces', log='warn')
     def clear_joint_forces(self, req):
         w = self.world
         with w.lock:
@@ -239,6 +243,7 @@ class JointRosApi(object):
                 w.physics.clear_joint_efforts(mname, j.name)
         return JointRequestResponse()
 
+    @srvcheck.answers(SetModelConfigurationResponse, 'SetModelConfiguration', log='warn')
     def set_model_configuration(self, req):
         res = SetModelConfigurationResponse()
         w = self.world
@@ -261,6 +266,7 @@ class JointRosApi(object):
         res.status_message = 'SetModelConfiguration: success'
         return res
 
+    @srvcheck.answers(GetModelPropertiesResponse, 'GetModelProperties', log='warn')
     def get_model_properties(self, req):
         res = GetModelPropertiesResponse()
         w = self.world
@@ -291,6 +297,7 @@ class JointRosApi(object):
         rinv = fpose.inverse()
         return rinv * pose, rinv.rotate(lin - flin), rinv.rotate(ang - fang)
 
+    @srvcheck.answers(GetLinkStateResponse, 'GetLinkState', log='warn')
     def get_link_state(self, req):
         res = GetLinkStateResponse()
         w = self.world
@@ -307,13 +314,16 @@ class JointRosApi(object):
         res.status_message = 'GetLinkState: got state'
         return res
 
+    @srvcheck.answers(SetLinkStateResponse, 'SetLinkState', log='warn')
     def set_link_state(self, req):
         res = SetLinkStateResponse()
         st = req.link_state
         w = self.world
         try:
-            pose = Pose.from_msg(st.pose)
-        except InvalidPose as e:
+            # as set_model_state: a spin of 1e300 rad/s aborts ODE
+            pose = srvcheck.pose(st.pose, 'pose')
+            lin, ang = srvcheck.twist(st.twist, 'twist')
+        except srvcheck.BadRequest as e:
             return self._fail(res, 'SetLinkState', 'link %r: %s' % (st.link_name, e))
         with w.lock:
             try:
@@ -325,8 +335,6 @@ class JointRosApi(object):
                 return self._fail(res, 'SetLinkState', 'link %r of model %r is not its root '
                                   'link %r: set the root link, or the joints with '
                                   'set_model_configuration' % (lname, mname, model.root_link))
-            lin = np.array([st.twist.linear.x, st.twist.linear.y, st.twist.linear.z])
-            ang = np.array([st.twist.angular.x, st.twist.angular.y, st.twist.angular.z])
             try:
                 w.set_state(mname, pose, lin, ang, st.reference_frame)
             except (KeyError, InvalidPose, ValueError) as e:
@@ -336,6 +344,7 @@ class JointRosApi(object):
         res.status_message = 'SetLinkState: success'
         return res
 
+    @srvcheck.answers(GetLinkPropertiesResponse, 'GetLinkProperties', log='warn')
     def get_link_properties(self, req):
         res = GetLinkPropertiesResponse()
         w = self.world

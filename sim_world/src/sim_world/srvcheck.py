@@ -29,6 +29,7 @@ from .model import MAX_POSITION
 from .spawn import one_line
 
 __all__ = ['BadRequest', 'MAX_TIME', 'MAX_SPEED', 'MAX_SPIN', 'MAX_POSITION', 'MAX_SCALE',
+           'MAX_EFFORT',
            'number', 'duration', 'sim_time', 'name', 'ros_namespace', 'choice', 'vector', 'pose', 'twist',
            'answers', 'refusal', 'one_line']
 
@@ -36,6 +37,7 @@ MAX_TIME = 1e9       # s: sim times and durations (31.7 years)
 MAX_SPEED = 1e4      # m/s: a model's linear speed (each component)
 MAX_SPIN = 1e4       # rad/s: a model's angular speed (each component)
 MAX_SCALE = 1e6      # multipliers (a noise fault's sigma factor)
+MAX_EFFORT = 1e6     # N or N m: an effort applied to a joint
 
 
 class BadRequest(ValueError):

@@ -1,5 +1,5 @@
-"""The gate (stepgate before issue 45): inputs from other nodes wait while the world steps a slice of the testing instance's
-lockstep.
+"""The gate (stepgate before issue 45): inputs from other nodes wait while the world steps a
+slice of the testing instance's lockstep.
 
 In the lockstep an app answers what a slice brought it; what it sends (a topic the world
 subscribes to, a service call to the world) must not reach the world in the middle of a

@@ -1,6 +1,6 @@
 """sim_world.transport (fastpub before issue 45) under a real roscore: a publisher (as the
-camera's image_raw and sim_world's /clock use it) serves a remote rospy subscriber every message intact, hands a subscriber in
-its own node the very message objects (no serialization, no socket), respects that
+camera's image_raw and sim_world's /clock use it) serves a remote rospy subscriber every
+message intact, hands a subscriber in its own node the very message objects (no serialization, no socket), respects that
 subscriber's queue, and drops the local connection once the subscriber unregisters (so the
 camera stops rendering for nobody)."""
 import json

@@ -29,7 +29,7 @@ from fixtures.rosworld import office_world
 from sim_world.netutil import master_port
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FINITE_TIMEOUT = float(os.environ.get('MDS_README_TIMEOUT', '300'))   # s, a command run to its end
+FINITE_TIMEOUT = float(os.environ.get('MDS_README_TIMEOUT', '600'))   # s, a command run to its end
 EXPECT_TIMEOUT = 150.0    # s a command that runs until Ctrl-C has to print what the page shows
 SETTLE = {'roslaunch': 15.0, 'roscore': 3.0}    # s such a command runs when nothing is expected
 SETTLE_DEFAULT = 8.0

@@ -134,7 +134,13 @@ def parse_args(argv):
     p.add_argument('-robot_namespace', default=None,
                    help="the plugins' ROS namespace (default the node's, as gazebo_ros's)")
     p.add_argument('-timeout', type=float, default=30.0)
+    p.add_argument('-J', nargs=2, action='append', default=[], metavar=('JOINT', 'VALUE'),
+                   help='a joint position set after spawning (set_model_configuration)')
     a = p.parse_args(argv)
+    try:
+        a.J = [(n, float(v)) for n, v in a.J]
+    except ValueError:
+        p.error('-J takes a joint name and a number, got %s' % a.J)
     if bool(a.file) == bool(a.param):
         p.error('give exactly one of -file and -param')
     return a
@@ -183,4 +189,15 @@ def main(argv=None):
         rospy.logfatal('spawn_model: %s' % res.status_message)
         return 1
     rospy.loginfo('spawn_model: %s' % res.status_message)
+    if a.J:       # as gazebo_ros's spawn_model: the joints set right after the spawn
+        from mobile_device_sim.srv import SetModelConfiguration
+        conf = '/gazebo/set_model_configuration'
+        if not wait_for_service(conf, timeout=a.timeout, caller=rospy.get_name()):
+            rospy.logfatal('spawn_model: service %s did not appear' % conf)
+            return 1
+        res = rospy.ServiceProxy(conf, SetModelConfiguration)(
+            a.model, '', [n for n, _ in a.J], [v for _, v in a.J])
+        if not res.success:
+            rospy.logfatal('spawn_model: %s' % res.status_message)
+            return 1
     return 0

@@ -121,3 +121,18 @@ def test_two_phones_from_one_description(world):
         assert all(n.startswith('/%s/' % name) for n in names), names
     disp = [p for p in world.plugins['phone2'] if p.spec.filename == 'libgazebo_ros_video.so']
     assert disp[0].image_topic == '/phone2/image_raw'      # its own camera's preview
+
+
+def test_frames_follow_the_tf_prefix(world):
+    """A phone spawned in /phone2 publishes tf frames phone2/<link> (gazebo_api.tf_frame), and
+    its sensors' and camera's frame_id are those frames too (gazebo_ros's plugins resolve
+    frameName with tf_prefix); without a namespace they stay plain."""
+    text = xacro('mobile_device.urdf.xacro')
+    for name, ns in (('plain', ''), ('phone2', '/phone2')):
+        ok, msg = spawn_xml(world, 'urdf', name, text, ns)
+        assert ok, msg
+    frames = {n: {p.spec.name: p.frame_id for p in world.plugins[n] if hasattr(p, 'frame_id')}
+              for n in ('plain', 'phone2')}
+    assert frames['plain']['imu_controller'] == 'mobile_device_frame'
+    assert frames['plain']['camera_controller'] == 'mobile_camera_optical_frame'
+    assert frames['phone2'] == {k: 'phone2/' + v for k, v in frames['plain'].items()}

@@ -188,7 +188,7 @@ class CameraPlugin(Sensor):
             self.camera = SimCamera(w, h, hfov, p.focal_length, p.Cx, p.Cy, dist, near, far)
         except CameraModelError as e:
             raise PluginError('%s: %s' % (self.label, e))
-        self.frame_id = p.frameName or self.link
+        self.frame_id = self.tf_frame(p.frameName or self.link)
         self.encoding = IMAGE_FORMATS[p.imageFormat] if p.imageFormat else 'rgb8'
         cam_name = p.cameraName.strip('/')
 

@@ -176,6 +176,17 @@ class Plugin(object):
             return topic if topic.startswith('/') else '/' + topic
         return '/%s/%s' % (self.namespace, topic)
 
+    def tf_frame(self, frame):
+        """``frame`` as this model's tf frames are named: prefixed with the model's tf prefix
+        where it has one (a URDF robot spawned in a robot namespace, sim_world.spawn), as
+        gazebo_ros's plugins resolve their frameName with tf_prefix; absolute names stay."""
+        prefix = (self.model.tf_prefix or '').strip('/')
+        if not prefix or not frame:
+            return frame
+        if frame.startswith('/'):
+            return frame[1:]
+        return '%s/%s' % (prefix, frame)
+
     def due(self, sim_time):
         """True when the plugin should update at ``sim_time``; advances its schedule by
         whole periods so the rate in sim time is exact."""

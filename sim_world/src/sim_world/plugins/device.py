@@ -191,7 +191,7 @@ class Device(Plugin):
         frame = p.frameName
         if frame is None:
             frame = DEVICE_FRAME if DEVICE_FRAME in self.model.links else self.body
-        self.frame_id = frame
+        self.frame_id = self.tf_frame(frame)
         frame_link = frame if frame in self.model.links else self.body
         poses = self.model.link_poses()
         self.frame_offset = poses[self.body].inverse() * poses[frame_link]

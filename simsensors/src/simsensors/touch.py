@@ -219,15 +219,15 @@ class TouchScreen(Sensor):
         """Queue a tap/swipe; returns (ok, status text, key)."""
         w, h = self.size
         try:
-            x = srvcheck.number(x, 'x', 0, w, 'px (the display)')
-            y = srvcheck.number(y, 'y', 0, h, 'px (the display)')
+            x, y, x_end, y_end = (srvcheck.number(v, what, unit='px') for v, what in (
+                (x, 'x'), (y, 'y'), (x_end, 'x_end'), (y_end, 'y_end')))
             duration = srvcheck.duration(duration)
             pressure = srvcheck.number(pressure, 'pressure', 0, 1)
-            x_end, y_end = (srvcheck.number(x_end, 'x_end'), srvcheck.number(y_end, 'y_end'))
             swipe = x_end >= 0 or y_end >= 0
-            if swipe:
-                srvcheck.number(x_end, 'x_end', 0, w, 'px (the display; both < 0: no move)')
-                srvcheck.number(y_end, 'y_end', 0, h, 'px (the display; both < 0: no move)')
+            for what, (u, v) in (('', (x, y)), ('end ', (x_end, y_end) if swipe else (x, y))):
+                if not (0 <= u <= w and 0 <= v <= h):
+                    raise srvcheck.BadRequest('%s(%r, %r) is outside the display (0..%d, 0..%d '
+                                              'px)' % (what, u, v, w, h))
         except srvcheck.BadRequest as e:
             return False, 'inject_touch: %s' % e, None
         with self._lock:

@@ -239,3 +239,13 @@ def test_a_recorder_that_is_off_records_nothing():
     r = Recorder()
     c = parse(cmd(op='set_pose', model='m', position=[0, 0, 0]))
     assert r.add(c, 1.0) is None and r.actions == []
+
+
+def test_a_drag_while_paused_is_one_action_with_the_last_pose():
+    r = Recorder()
+    r.start(10.0)
+    for x in (1.0, 1.1, 1.2):
+        r.add(parse(cmd(op='set_pose', model='m', position=[x, 0, 0])), 10.5)
+    r.add(parse(cmd(op='set_pose', model='m', position=[1.3, 0, 0])), 10.6)
+    assert [(e['id'], e['at'], e['position'][0]) for e in r.actions] == [
+        ('a1', 0.5, 1.2), ('a2', 0.6, 1.3)]

@@ -3,7 +3,8 @@ timeline actions, and the scenario YAML they make (without ROS).
 
 While recording is on, every world-changing command that was carried out becomes one
 timeline entry at the sim time it happened, counted from the sim time recording started:
-``set_pose`` -> ``set_model_state``, ``touch`` -> ``touch`` (display pixels),
+``set_pose`` -> ``set_model_state`` (several poses of one model at the same sim time, a
+drag while the world is paused, are one action: the last pose), ``touch`` -> ``touch`` (display pixels),
 ``press_button`` -> ``press_button``, ``set_environment`` -> ``set_environment``,
 ``fault`` -> ``fault``. play, pause, step and reset are the studio's world controls, not
 scenario actions: they are not recorded. The YAML is checked with testing_instance's
@@ -84,6 +85,13 @@ class Recorder(object):
         else:
             return None
         at = max(0.0, round(float(sim_time) - self.t0, 3))
+        last = self.actions[-1] if self.actions else None
+        if last is not None and last['at'] == at and a['action'] == 'set_model_state' and \
+                last['action'] == 'set_model_state' and last['model'] == a['model']:
+            # a drag while the world is paused (or several poses in one step): the pose
+            # at that sim time is the last one
+            last.update(a)
+            return last
         entry = dict({'id': 'a%d' % (len(self.actions) + 1), 'at': at}, **a)
         self.actions.append(entry)
         return entry

@@ -90,6 +90,8 @@ class Studio(object):
         self.holder = None           # the Client holding control
         self.lock = None             # asyncio.Lock: world commands one at a time
         self.runs = 0
+        self.last_jpeg = None
+        self.want_camera = False
         self.log = lambda text: print(text, flush=True)
 
     # -- the one command handler --------------------------------------------------------
@@ -246,9 +248,15 @@ class Studio(object):
                     c.put('poses', msg)
                 now = time.monotonic()
                 seq = getattr(self.world, 'image_seq', 0)
-                if cam_period and seq != last_seq and now - last_cam >= cam_period:
+                if cam_period and (seq != last_seq or self.want_camera) and \
+                        now - last_cam >= cam_period:
+                    # a new client gets the latest image even while the world is paused
+                    self.want_camera = False
+                    if seq != last_seq or self.last_jpeg is None:
+                        self.last_jpeg = await loop.run_in_executor(None,
+                                                                    self.world.camera_jpeg)
                     last_cam, last_seq = now, seq
-                    jpeg = await loop.run_in_executor(None, self.world.camera_jpeg)
+                    jpeg = self.last_jpeg
                     if jpeg:
                         for c in self.clients:
                             c.put('camera', jpeg)
@@ -271,6 +279,7 @@ class Studio(object):
             f.write(text)
         env = dict(os.environ)
         env.pop('ROS_MASTER_URI', None)          # the run makes its own master
+        env.pop('RAY_ADDRESS', None)
         proc = await asyncio.create_subprocess_exec(
             sys.executable, RUN_SCENARIO, path, cwd=d, env=env,
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
@@ -297,7 +306,9 @@ def _compose(pq, pose):
 
 # -- the aiohttp application ------------------------------------------------------------------
 def make_app(studio):
-    app = web.Application(client_max_size=protocol.MAX_BYTES + 1024,
+    # bodies and messages up to 4x the protocol's limit are read and answered with the
+    # protocol's error; larger ones are cut off by aiohttp (413, a closed WebSocket)
+    app = web.Application(client_max_size=4 * protocol.MAX_BYTES,
                           middlewares=[_token_middleware(studio)])
     app['studio'] = studio
 
@@ -314,7 +325,7 @@ def make_app(studio):
         return web.json_response(rep, status=200 if rep['ok'] else 400)
 
     async def ws_handler(request):
-        ws = web.WebSocketResponse(max_msg_size=protocol.MAX_BYTES, heartbeat=None)
+        ws = web.WebSocketResponse(max_msg_size=4 * protocol.MAX_BYTES, heartbeat=None)
         await ws.prepare(request)
         c = Client(ws, request.remote)
         studio.clients.append(c)
@@ -323,6 +334,7 @@ def make_app(studio):
                                    'holder': studio.holder.name if studio.holder else None,
                                    'recording': studio.recorder.on,
                                    'yaml': studio.recorder.yaml()}))
+        studio.want_camera = True
         pump = asyncio.ensure_future(c.pump())
         try:
             async for msg in ws:

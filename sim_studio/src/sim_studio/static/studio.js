@@ -213,6 +213,11 @@
         if (r) r(m); else showError(m);
       } else if (m.type === 'poses') {
         studio.poses = m.poses;
+        if (studio.ready && !studio.asking &&
+            Object.keys(m.poses).some((n) => !studio.models[n])) {
+          studio.asking = true;          // a model spawned since: its description
+          send({op: 'scene'}).then((rep) => { build(rep.scene); studio.asking = false; });
+        }
         studio.simTime = m.t;
         $('simtime').textContent = m.t.toFixed(3);
         $('rtf').textContent = m.rtf.toFixed(2);
@@ -221,6 +226,7 @@
         showRecording(m.recording, m.yaml);
         send({op: 'scene'}).then((rep) => {
           const s = rep.scene;
+          if (studio.ready) { build(s); return; }      // a reconnect
           const phone = s.models.find((x) => x.name === studio.selected) || s.models[0];
           if (phone) {
             studio.selected = phone.name;

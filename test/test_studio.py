@@ -1,0 +1,315 @@
+"""The studio (sim_studio, issue 47) against a real world: ``studio`` started as a user
+starts it (its own master at ROS_MASTER_URI, the office world), commands over /ws and
+POST /api/cmd checked with /gazebo/get_model_state, bad commands answered with one error
+each while it keeps serving, the page in Debian's Chromium (Playwright) with real mouse
+events on the translate handle, recording, running the recording, and Ctrl-C leaving no
+process behind."""
+import asyncio
+import io
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+
+import numpy as np
+import pytest
+
+from sim_world.netutil import master_port
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+NODE = os.path.join(ROOT, 'sim_studio', 'nodes', 'studio')
+CHROMIUM = os.environ.get('MDS_CHROMIUM', '/usr/bin/chromium')
+
+pytestmark = pytest.mark.rostest
+
+# a client of /gazebo/get_model_state of its own (not the studio's): a model name per line
+# in, its state as a JSON line out
+GET_STATE = """
+import json, sys, rospy
+from mobile_device_sim.srv import GetModelState
+get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
+for line in sys.stdin:
+    res = get(line.strip(), '')
+    p, q = res.pose.position, res.pose.orientation
+    print(json.dumps([res.success, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]]), flush=True)
+"""
+
+
+def descendants(pid):
+    from testing_instance.world.procs import descendants as d
+    return d(pid)
+
+
+@pytest.fixture(scope='module')
+def studio(tmp_path_factory):
+    d = tmp_path_factory.mktemp('studio')
+    port = master_port()
+    env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port,
+               ROS_HOSTNAME='localhost', ROS_LOG_DIR=str(d / 'roslog'))
+    env.pop('RAY_ADDRESS', None)
+    log = open(str(d / 'studio.log'), 'w+')
+    p = subprocess.Popen([sys.executable, NODE, '--port', '0', 'camera_rate:=5',
+                          'flycam:=false', 'seed:=1'], env=env, stdout=log,
+                         stderr=subprocess.STDOUT, start_new_session=True)
+    url, deadline = None, time.monotonic() + 120
+    while url is None:
+        text = open(log.name).read()
+        m = re.search(r'^studio: (http://127\.0\.0\.1:\d+/)$', text, re.M)
+        if m:
+            url = m.group(1)
+        elif p.poll() is not None or time.monotonic() > deadline:
+            p.kill()
+            raise AssertionError('the studio did not start:\n' + text[-3000:])
+        time.sleep(0.1)
+    s = dict(url=url, env=env, proc=p, log=log.name, dir=d)
+    try:
+        while 'mobile_device' not in scene_names(url):        # the launch file spawns it
+            assert time.monotonic() < deadline, 'no phone in the scene'
+            time.sleep(0.2)
+        yield s
+    finally:
+        if 'getter' in s:
+            s['getter'].stdin.close()
+            s['getter'].wait(10)
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+        log.close()
+
+
+def scene_names(url):
+    with urllib.request.urlopen(url + 'api/scene', timeout=30) as r:
+        return [m['name'] for m in json.loads(r.read())['models']]
+
+
+def model_state(studio, model='mobile_device'):
+    if 'getter' not in studio:
+        studio['getter'] = subprocess.Popen([sys.executable, '-c', GET_STATE],
+                                            env=studio['env'], stdin=subprocess.PIPE,
+                                            stdout=subprocess.PIPE, text=True)
+    g = studio['getter']
+    g.stdin.write(model + '\n')
+    g.stdin.flush()
+    line = g.stdout.readline()
+    assert line, 'the get_model_state client died'
+    ok, pos, quat = json.loads(line)
+    assert ok
+    return pos, quat
+
+
+def post(studio, body):
+    req = urllib.request.Request(studio['url'] + 'api/cmd', data=body.encode(),
+                                 method='POST')
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, json.loads(r.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read())
+
+
+async def ws_session(url, commands):
+    """Send each command on one /ws connection; their replies (in order), and the poses
+    streamed meanwhile."""
+    import aiohttp
+    replies, poses = [], []
+    async with aiohttp.ClientSession() as s:
+        async with s.ws_connect(url.replace('http', 'ws') + 'ws',
+                                max_msg_size=0) as ws:
+            for c in commands:
+                if callable(c):
+                    await c(poses)
+                    continue
+                await ws.send_str(c if isinstance(c, str) else json.dumps(c))
+                while True:
+                    m = await asyncio.wait_for(ws.receive(), 60)
+                    if m.type != aiohttp.WSMsgType.TEXT:
+                        continue
+                    d = json.loads(m.data)
+                    if d.get('type') == 'poses':
+                        poses.append(d)
+                    elif d.get('type') == 'reply':
+                        replies.append(d)
+                        break
+            # the stream: poses keep coming after the commands
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 1.0:
+                m = await asyncio.wait_for(ws.receive(), 10)
+                if m.type == aiohttp.WSMsgType.TEXT and json.loads(m.data)['type'] == 'poses':
+                    poses.append(json.loads(m.data))
+    return replies, poses
+
+
+def test_startup_line_and_scene(studio):
+    assert open(studio['log']).read().count('studio: http://127.0.0.1:') == 1
+    with urllib.request.urlopen(studio['url'] + 'api/scene', timeout=30) as r:
+        scene = json.loads(r.read())
+    names = [m['name'] for m in scene['models']]
+    assert 'mobile_device' in names and 'desk' in names
+    phone = next(m for m in scene['models'] if m['name'] == 'mobile_device')
+    assert {'mobile_base_link', 'mobile_display'} <= {ln['name'] for ln in phone['links']}
+    assert all(len(ln['world_pose']['position']) == 3 for ln in phone['links'])
+    with urllib.request.urlopen(studio['url'] + 'three/three.min.js', timeout=30) as r:
+        assert b'REVISION' in r.read()[:200000]
+
+
+def test_commands_over_ws_and_post_move_the_world(studio):
+    bad = [
+        '{"v": 1, "op": "set_pose", "model": "mobile_device", "position": [NaN, 0, 1], "id": 1}',
+        {'v': 1, 'op': 'teleport', 'id': 2},
+        {'v': 1, 'op': 'set_pose', 'model': 'no_such_phone', 'position': [0, 0, 1], 'id': 3},
+        {'v': 1, 'op': 'set_pose', 'model': 'mobile_device', 'position': 'up', 'id': 4},
+        {'v': 1, 'op': 'check', 'yaml': 'x' * 300000, 'id': 5},
+        {'v': 1, 'op': 'touch', 'x': 0.5, 'y': 0.5, 'duration': -1, 'id': 6},
+    ]
+    before, _q = model_state(studio)
+    replies, _ = asyncio.run(ws_session(studio['url'], [{'v': 1, 'op': 'pause'}] + bad))
+    assert replies[0]['ok'], replies[0]
+    errors = replies[1:]
+    assert [r['ok'] for r in errors] == [False] * len(bad), errors
+    assert [r.get('id') for r in errors[1:]] == [2, 3, 4, None, 6]
+    assert 'NaN' in errors[0]['error'] and 'unknown op' in errors[1]['error']
+    assert 'no model' in errors[2]['error'] and 'larger than' in errors[4]['error']
+    after, _q = model_state(studio)
+    assert np.allclose(before, after, atol=1e-6), 'a refused command moved the phone'
+
+    target = [3.1, -2.0, 1.1]
+    got = {}
+
+    async def wait_pose(poses):
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 10:
+            await asyncio.sleep(0.02)
+            if poses and np.allclose(poses[-1]['poses']['mobile_device'][:3], target,
+                                     atol=1e-3):
+                got['seen'] = True
+                return
+    replies, poses = asyncio.run(ws_session(studio['url'], [
+        {'v': 1, 'op': 'set_pose', 'model': 'mobile_device', 'position': target,
+         'rpy': [0, 0, 0.5], 'id': 'move'},
+        {'v': 1, 'op': 'scene'}, wait_pose]))
+    assert replies[0]['ok'] and replies[0]['id'] == 'move', replies
+    pos, quat = model_state(studio)
+    assert np.allclose(pos, target, atol=1e-3)
+    assert abs(2 * np.arctan2(quat[2], quat[3]) - 0.5) < 1e-3
+    assert len(poses) >= 10 and all(p['v'] == 1 for p in poses)
+
+    # POST /api/cmd: the same handler
+    code, rep = post(studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
+                                         'position': [3.2, -2.05, 1.05]}))
+    assert code == 200 and rep['ok'], rep
+    assert np.allclose(model_state(studio)[0], [3.2, -2.05, 1.05], atol=1e-3)
+    code, rep = post(studio, '{"v": 1, "op": "set_pose", "model": "mobile_device", '
+                             '"position": [Infinity, 0, 1]}')
+    assert code == 400 and not rep['ok'] and 'Infinity' in rep['error']
+    code, rep = post(studio, 'not json')
+    assert code == 400 and 'not JSON' in rep['error']
+    assert np.allclose(model_state(studio)[0], [3.2, -2.05, 1.05], atol=1e-3)
+
+
+def png_pixels(png):
+    from PIL import Image
+    return np.asarray(Image.open(io.BytesIO(png)).convert('RGB')).astype(int)
+
+
+def data_url(page, canvas_js):
+    """The PNG bytes of a canvas, as the page holds them (no screenshot of an element that
+    keeps changing)."""
+    import base64
+    url = page.evaluate('(%s).toDataURL("image/png")' % canvas_js)
+    assert url.startswith('data:image/png;base64,'), url[:80]
+    return base64.b64decode(url.split(',', 1)[1])
+
+
+@pytest.fixture(scope='module')
+def page(studio):
+    from playwright.sync_api import sync_playwright
+    assert os.access(CHROMIUM, os.X_OK), "Debian's chromium is missing"
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=['--no-sandbox'])
+        pg = b.new_page(viewport={'width': 1280, 'height': 760})
+        errors = []
+        pg.on('pageerror', lambda e: errors.append(str(e)))
+        outside = []
+        pg.on('request', lambda r: None if r.url.startswith(studio['url'].rstrip('/'))
+              or r.url.startswith(('ws://127.0.0.1', 'blob:', 'data:'))
+              else outside.append(r.url))
+        pg.goto(studio['url'], wait_until='domcontentloaded')
+        pg.wait_for_function('window.studio && window.studio.frames > 2', timeout=60000)
+        pg.errors, pg.outside = errors, outside
+        yield pg
+        b.close()
+
+
+def test_the_page_draws_the_world_and_the_camera(studio, page):
+    px = png_pixels(data_url(page, "document.querySelector('[data-testid=viewport]')"))
+    assert px.std() > 10, 'the 3D view is blank'
+    assert len({tuple(c) for c in px[::7, ::7].reshape(-1, 3)}) > 20
+    page.evaluate("studio.send({op: 'play'})")        # the last test paused it
+    page.wait_for_function("window.studio.cameraFrames > 1 && document.querySelector("
+                           "'[data-testid=camera-view]').naturalWidth > 0", timeout=180000)
+    cam = png_pixels(data_url(page, "(() => { const i = document.querySelector("
+                                    "'[data-testid=camera-view]'); const c = document."
+                                    "createElement('canvas'); c.width = i.naturalWidth; "
+                                    "c.height = i.naturalHeight; c.getContext('2d')."
+                                    "drawImage(i, 0, 0); return c; })()"))
+    assert cam.shape[0] > 100 and cam.shape[1] > 100
+    assert cam.std() > 5, 'the camera panel is blank'
+    page.wait_for_function("document.querySelector('[data-testid=sim-time]')"
+                           ".textContent !== '-'", timeout=30000)
+    assert float(page.get_by_test_id('sim-time').text_content()) > 0
+    assert page.outside == [] and page.errors == []
+
+
+def test_drag_the_handle_record_and_run(studio, page):
+    page.evaluate("studio.send({op: 'pause'})")
+    page.get_by_test_id('record').click()
+    page.wait_for_function('window.studio.recording === true', timeout=30000)
+    before, _q = model_state(studio)
+    page.wait_for_function('!window.studio.dragging')
+    p = page.evaluate("studio.handlePoint('X')")
+    page.mouse.move(p['x'], p['y'])
+    page.mouse.move(p['x'] + 1, p['y'])
+    page.mouse.down()
+    for i in range(1, 11):
+        page.mouse.move(p['x'] + 12 * i, p['y'], steps=2)
+    page.mouse.up()
+    deadline = time.monotonic() + 30
+    while True:
+        pos, _q = model_state(studio)
+        if pos[0] - before[0] > 0.02 or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    assert pos[0] - before[0] > 0.02, (before, pos)
+    assert abs(pos[1] - before[1]) < 0.01 and abs(pos[2] - before[2]) < 0.01
+    page.get_by_test_id('record').click()
+    page.wait_for_function('window.studio.recording === false', timeout=30000)
+    yaml = page.get_by_test_id('scenario-yaml').input_value()
+    assert 'action: set_model_state, model: mobile_device' in yaml, yaml
+    last = [ln for ln in yaml.splitlines() if 'set_model_state' in ln][-1]
+    x = float(re.search(r'position: \[([-\d.e]+),', last).group(1))
+    assert abs(x - pos[0]) < 1e-3, (last, pos)
+    page.screenshot(path=str(studio['dir'] / 'studio.png'))
+    page.get_by_test_id('run').click()
+    page.wait_for_function("/scenario: (PASS|FAIL|ERROR)/.test(document.querySelector("
+                           "'[data-testid=verdicts]').textContent)", timeout=180000)
+    text = page.get_by_test_id('verdicts').text_content()
+    assert 'scenario: PASS' in text, text
+
+
+def test_ctrl_c_leaves_no_process_behind(studio, page):
+    p = studio['proc']
+    kids = descendants(p.pid)
+    assert len(kids) >= 3            # the studio, its master, roslaunch and the world
+    os.kill(p.pid, signal.SIGINT)
+    p.wait(60)
+    deadline = time.monotonic() + 20
+    from testing_instance.world.procs import alive
+    while any(alive(k) for k in kids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [k for k in kids if alive(k)]
+    assert 'studio: stopped' in open(studio['log']).read()

@@ -2,3 +2,6 @@
 virtual environment): World, environment, ray casting, transforms, model loaders (model, urdf,
 sdf, mesh), physics (ODE, Bullet), the offscreen renderer, the plugin SDK (``sim_world.plugins``)
 and the world's ROS layer (``node``, ``gazebo_api``, ``world_services``, ``spawn``)."""
+
+#: plugin modules of this package (sim_world.plugins finds them here); the SDK holds none
+PLUGIN_MODULES = ['sim_world.control.joint_state_publisher']

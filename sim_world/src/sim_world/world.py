@@ -349,6 +349,13 @@ class World(object):
             raise KeyError('no model named %r' % model_name)
         return self.physics.link_pose(model_name, link_name)
 
+    def joint_states(self, model_name):
+        """{joint: (position, velocity)} of a model's simulated joints ({} for a model
+        that is one rigid body); KeyError for an unknown model."""
+        if model_name not in self.models:
+            raise KeyError('no model named %r' % model_name)
+        return self.physics.joint_states(model_name)
+
     def model_state(self, name):
         """(Pose, linear, angular) of a model's root link in the world."""
         if name not in self.models:

@@ -29,7 +29,8 @@ holds every plugin module to it):
   ``ros_enabled`` (False in unit tests without a roscore), ``log`` (the world's logger),
   ``reschedule()`` (after a plugin changed its rate from another thread);
 - models and state: ``models`` (name -> Model), ``link_pose(model, link)`` (Pose in the
-  world), ``entity_state(entity)`` and ``pass_state(entity)`` (pose, linear and angular
+  world), ``joint_states(model)`` ({joint: (position, velocity)} of its simulated joints),
+  ``entity_state(entity)`` and ``pass_state(entity)`` (pose, linear and angular
   velocity; the second read once per plugin pass), ``gravity`` (m/s^2 vector), ``rng(*keys)``
   (a generator from the world's seed);
 - the renderer: ``renderer`` (the one offscreen renderer, created on first use),
@@ -72,7 +73,7 @@ __all__ = ['Plugin', 'PluginError', 'register', 'lookup', 'create', 'registered_
 #: what a plugin may use of the World (see the module doc)
 WORLD_SEAM = (
     'sim_time', 'step_size', 'ros_now', 'lock', 'ros_enabled', 'log', 'reschedule',
-    'models', 'link_pose', 'entity_state', 'pass_state', 'gravity', 'rng',
+    'models', 'link_pose', 'entity_state', 'pass_state', 'joint_states', 'gravity', 'rng',
     'renderer', 'renderer_if_created', 'parallel_render', 'flush', 'lights', 'ambient',
     'raycast', 'segment_intervals',
     'contacts', 'apply_wrench', 'clear_wrench',

@@ -9,7 +9,6 @@ our srv/ and msg/ files, which carry the same definitions.
 """
 import math
 
-import numpy as np
 import pytest
 import rospy
 

@@ -58,6 +58,9 @@ class FakeWorld(object):
         self.calls.append(('step', until))
         return until
 
+    def camera_jpeg(self):
+        return b'\xff\xd8 a jpeg'
+
 
 class FakeWs(object):
     closed = False
@@ -249,3 +252,73 @@ def test_a_drag_while_paused_is_one_action_with_the_last_pose():
     r.add(parse(cmd(op='set_pose', model='m', position=[1.3, 0, 0])), 10.6)
     assert [(e['id'], e['at'], e['position'][0]) for e in r.actions] == [
         ('a1', 0.5, 1.2), ('a2', 0.6, 1.3)]
+
+
+# -- the aiohttp application, in this process (no roscore) --------------------------------
+def serve(s, fn):
+    """Run ``fn(client)`` against the studio's app on a test server."""
+    from aiohttp.test_utils import TestClient, TestServer
+    from sim_studio.server import make_app
+
+    async def go():
+        async with TestClient(TestServer(make_app(s))) as c:
+            return await fn(c)
+    return run(go())
+
+
+def test_the_token_guards_every_route_when_set():
+    s = studio()
+    s.token = 'sekrit'
+
+    async def fn(c):
+        r1 = await c.get('/api/scene')
+        r2 = await c.get('/api/scene?token=sekrit')
+        r3 = await c.post('/api/cmd', data=cmd(op='pause'),
+                          headers={'X-Studio-Token': 'sekrit'})
+        r4 = await c.post('/api/cmd', data=cmd(op='pause'), headers={'X-Studio-Token': 'x'})
+        return r1.status, (await r1.json())['error'], r2.status, r3.status, r4.status
+    st1, err, st2, st3, st4 = serve(s, fn)
+    assert (st1, st2, st3, st4) == (403, 200, 200, 403) and 'token' in err
+    assert s.world.calls == [('pause',)]
+
+
+def test_websocket_clients_stream_poses_and_one_holds_control():
+    s = studio()
+
+    async def fn(c):
+        a = await c.ws_connect('/ws')
+        b = await c.ws_connect('/ws')
+        hello = await a.receive_json()
+        got = {'poses': 0, 'images': []}
+
+        async def reply(ws):
+            while True:
+                msg = await ws.receive(timeout=10)
+                if isinstance(msg.data, bytes):
+                    got['images'].append(msg.data)
+                    continue
+                m = json.loads(msg.data)
+                if m.get('type') == 'poses':
+                    got['poses'] += 1
+                if m['type'] == 'reply':
+                    return m
+        await a.send_str(cmd(op='play', id=1))
+        ra = await reply(a)
+        await b.send_str(cmd(op='pause', id=2))
+        rb = await reply(b)
+        await b.send_str('{"v": 1, "op": "set_pose", "model": "mobile_device", '
+                         '"position": [0, 0, NaN], "id": 3}')
+        rbad = await reply(b)
+        await a.close()
+        await asyncio.sleep(0.1)
+        await b.send_str(cmd(op='pause', id=4))
+        rb2 = await reply(b)
+        await b.close()
+        return hello, ra, rb, rbad, rb2, got['poses'], got['images']
+    hello, ra, rb, rbad, rb2, poses, images = serve(s, fn)
+    assert hello['type'] == 'hello' and 'set_pose' in hello['ops']
+    assert ra['ok'] and not rb['ok'] and 'read-only' in rb['error']
+    assert not rbad['ok'] and rbad['id'] == 3 and 'NaN' in rbad['error']
+    assert rb2['ok'], 'control did not pass on when its holder left'
+    assert s.world.calls == [('play',), ('pause',)]
+    assert poses >= 1 and images and images[0].startswith(b'\xff\xd8')

@@ -238,31 +238,41 @@ class Studio(object):
         loop = asyncio.get_event_loop()
         period = 1.0 / self.rate
         cam_period = 1.0 / self.camera_rate if self.camera_rate > 0 else None
-        last_cam, last_seq = 0.0, -1
+        self._cam = [0.0, -1]          # when the last image went out, its sequence number
         nxt = time.monotonic()
         while True:
             nxt += period
-            if self.clients:
-                msg = self.poses_message()
-                for c in self.clients:
-                    c.put('poses', msg)
-                now = time.monotonic()
-                seq = getattr(self.world, 'image_seq', 0)
-                if cam_period and (seq != last_seq or self.want_camera) and \
-                        now - last_cam >= cam_period:
-                    # a new client gets the latest image even while the world is paused
-                    self.want_camera = False
-                    if seq != last_seq or self.last_jpeg is None:
-                        self.last_jpeg = await loop.run_in_executor(None,
-                                                                    self.world.camera_jpeg)
-                    last_cam, last_seq = now, seq
-                    jpeg = self.last_jpeg
-                    if jpeg:
-                        for c in self.clients:
-                            c.put('camera', jpeg)
+            try:
+                await self._stream_once(loop, cam_period)
+            except asyncio.CancelledError:
+                raise
+            except Exception as e:  # noqa: BLE001 - the stream must outlive a bad frame
+                self.log('studio: stream: %s: %s' % (type(e).__name__, e))
             await asyncio.sleep(max(0.0, nxt - time.monotonic()))
             if time.monotonic() - nxt > 1.0:
                 nxt = time.monotonic()
+
+    async def _stream_once(self, loop, cam_period):
+        """One tick: the poses to every client, and the camera image when it is due."""
+        if self.clients:
+            msg = self.poses_message()
+            for c in self.clients:
+                c.put('poses', msg)
+            now = time.monotonic()
+            last_cam, last_seq = self._cam
+            seq = getattr(self.world, 'image_seq', 0)
+            if cam_period and (seq != last_seq or self.want_camera) and \
+                    now - last_cam >= cam_period:
+                # a new client gets the latest image even while the world is paused
+                self.want_camera = False
+                if seq != last_seq or self.last_jpeg is None:
+                    self.last_jpeg = await loop.run_in_executor(None,
+                                                                self.world.camera_jpeg)
+                self._cam = [now, seq]
+                jpeg = self.last_jpeg
+                if jpeg:
+                    for c in self.clients:
+                        c.put('camera', jpeg)
 
     # -- running a scenario -----------------------------------------------------------------
     async def run_yaml(self, text):

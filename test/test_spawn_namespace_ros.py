@@ -7,6 +7,7 @@
 - a spawn without a namespace whose plugins would take another model's names is refused with
   one line naming both models and the name, suggesting -robot_namespace; nothing of it stays
   and the first model keeps running."""
+import json
 import os
 import subprocess
 import sys
@@ -21,6 +22,7 @@ from fixtures.rosworld import office_world  # noqa: E402
 
 ROOT = os.path.dirname(HERE)
 PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
+CLIENT = os.path.join(HERE, 'fixtures', 'spawn_ns_client.py')
 
 pytestmark = pytest.mark.rostest
 
@@ -35,19 +37,13 @@ def spawn(env, *args):
               + ' '.join(args), timeout=90)
 
 
-def one_message(env, topic, timeout=20):
-    """True when ``topic`` delivers a message within ``timeout`` s of wall time."""
-    try:
-        r = sh(env, 'rostopic echo -n 1 --noarr %s/header/stamp' % topic, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return False
-    return r.returncode == 0 and 'secs' in r.stdout
-
-
-def call(env, srv, args):
-    r = sh(env, "rosservice call %s '%s'" % (srv, args))
-    assert r.returncode == 0, (srv, r.stdout, r.stderr)
-    return yaml.safe_load(r.stdout)
+def client(env, what):
+    """What fixtures/spawn_ns_client.py saw (one rospy process for all the checks)."""
+    r = subprocess.run([sys.executable, CLIENT, what], env=env, capture_output=True, text=True,
+                       timeout=180)
+    lines = [ln for ln in r.stdout.splitlines() if ln.startswith('{')]
+    assert r.returncode == 0 and lines, (r.stdout[-2000:], r.stderr[-3000:])
+    return json.loads(lines[-1])
 
 
 def test_rosparam_set_and_two_phones_side_by_side(tmp_path):
@@ -67,19 +63,16 @@ def test_rosparam_set_and_two_phones_side_by_side(tmp_path):
         # 2. a second phone from the same description, in /phone2
         r = spawn(env, '-model phone2 -x 3 -y -2 -z 1.2 -robot_namespace /phone2')
         assert r.returncode == 0, r.stdout + r.stderr
-        for topic in ('/phone2/imu_sensor_data', '/phone2/image_raw', '/phone2/magnetic',
-                      '/mobile_device/imu_sensor_data'):
-            assert one_message(env, topic), topic
-        for srv, args in (('/phone2/inject_touch', '{x: 100, y: 200, duration: 0.1}'),
-                          ('/phone2/press_button', '{button: power, duration: 0.1}'),
-                          ('/phone2/set_device_time', '{device_time: {secs: 1000, nsecs: 0}}')):
-            res = call(env, srv, args)
-            assert res['success'] is True, (srv, res)
-        res = call(env, '/gazebo/set_sensor_fault',
-                   '{model_name: phone2, sensor: imu_controller, fault: drop}')
-        assert res['success'] is True, res
-        assert not one_message(env, '/phone2/imu_sensor_data', timeout=4)     # its fault ...
-        assert one_message(env, '/mobile_device/imu_sensor_data')             # ... only
+        seen = client(env, 'phones')
+        assert seen['/phone2/imu_sensor_data'] == 'phone2/mobile_device_frame', seen
+        assert seen['/phone2/image_raw'] == 'phone2/mobile_camera_optical_frame', seen
+        assert seen['/phone2/magnetic'] == 'phone2/mobile_device_frame', seen
+        assert seen['/mobile_device/imu_sensor_data'] == 'mobile_device_frame', seen
+        for srv in ('/phone2/inject_touch', '/phone2/press_button', '/phone2/set_device_time',
+                    'fault'):
+            assert seen[srv][0] is True, (srv, seen[srv])
+        assert seen['phone2_imu_after_fault'] is None, seen             # its fault ...
+        assert seen['mobile_device_imu_after_fault'] == 'mobile_device_frame', seen  # only
 
         # 3. no namespace: the first spawn takes the global names, the second is refused
         r = spawn(env, '-model lone -x 2 -y -2 -z 1.2')
@@ -90,12 +83,8 @@ def test_rosparam_set_and_two_phones_side_by_side(tmp_path):
         assert len(lines) == 1, r.stdout + r.stderr
         assert "'lone2'" in lines[0] and "'lone'" in lines[0]
         assert '/imu_sensor_data' in lines[0] and '-robot_namespace /lone2' in lines[0]
-        res = call(env, '/gazebo/get_model_state', '{model_name: lone2}')
-        assert res['success'] is False                                  # no body
-        res = call(env, '/gazebo/get_model_state', '{model_name: lone}')
-        assert res['success'] is True
-        assert one_message(env, '/imu_sensor_data')                     # the first runs on
-        res = call(env, '/set_device_time', '{device_time: {secs: 5, nsecs: 0}}')  # and serves
-        assert res['success'] is True, res
-        r = sh(env, 'rosnode list')
-        assert r.returncode == 0 and '/sim_world' in r.stdout          # the world lives
+        seen = client(env, 'after')
+        assert seen['lone2'][0] is False                                # no body
+        assert seen['lone'][0] is True
+        assert seen['/imu_sensor_data'] == 'mobile_device_frame'        # the first runs on
+        assert seen['/set_device_time'][0] is True, seen                # and serves

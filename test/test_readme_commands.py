@@ -153,6 +153,12 @@ def _check_output(cmd, log, started, upto=None):
             raise Failure('%s is older than the command' % path)
 
 
+def _printed(log, expects):
+    with open(log, errors='replace') as f:
+        text = f.read()
+    return all(e in text for e in expects)
+
+
 def _run_command(cmd, env, log, background):
     """Runs one command; returns the process if it is left running (background). Whatever
     happens meanwhile (a failure, Ctrl-C of the suite), nothing of it is left running."""
@@ -170,20 +176,25 @@ def _run_command(cmd, env, log, background):
 
 def _follow(cmd, p, log, background, started):
     if background:
-        time.sleep(2.0)
+        # a background command's '# -> TEXT' says when it is ready for the next line
+        deadline = time.monotonic() + (EXPECT_TIMEOUT if cmd.expects else 2.0)
+        while time.monotonic() < deadline and p.poll() is None:
+            if cmd.expects and _printed(log, cmd.expects):
+                break
+            time.sleep(0.3)
         if p.poll() not in (None, 0):
-            raise Failure('background command exited %s at once' % p.returncode)
+            raise Failure('background command exited %s' % p.returncode)
+        if cmd.expects and not _printed(log, cmd.expects):
+            raise Failure('output lacks %s' % ', '.join(
+                repr(e) for e in cmd.expects if not _printed(log, [e])))
         return p
     if runs_until_interrupted(cmd.text):
         prog = cmd.text.split()[0]
         deadline = time.monotonic() + (EXPECT_TIMEOUT if cmd.expects
                                        else SETTLE.get(prog, SETTLE_DEFAULT))
         while time.monotonic() < deadline and p.poll() is None:
-            if cmd.expects:
-                with open(log, errors='replace') as f:
-                    text = f.read()
-                if all(e in text for e in cmd.expects):
-                    break
+            if cmd.expects and _printed(log, cmd.expects):
+                break
             time.sleep(0.3)
         code = p.poll()
         with open(log, errors='replace') as f:

@@ -93,6 +93,8 @@ def test_what_starts_a_world_of_its_own():
     assert starts_a_world('tools/demo --exit', ROOT)
     assert starts_a_world('roscore')
     assert starts_a_world('rosrun mobile_device_sim sim_world x.world')
+    assert starts_a_world('rosrun mobile_device_sim studio --port 0')
+    assert not starts_a_world('rosrun mobile_device_sim studio --attach')
     assert not starts_a_world('roslaunch mobile_device_sim audio_device.launch', ROOT)
     assert not starts_a_world('rosrun mobile_device_sim barcode_reader', ROOT)
     assert not starts_a_world('rostopic echo /clock')

@@ -1,7 +1,8 @@
-"""Clock sources of the runner's loop (no ROS)."""
+"""The clocks of the run's one loop (no ROS)."""
 import pytest
 
 from testing_instance.run.clock import ReplayClock, WorldClock
+from testing_instance.scenario.results import RunError
 
 
 def test_replay_clock_publishes_a_slice_in_order_with_clock_before_each():
@@ -21,17 +22,32 @@ def test_replay_clock_publishes_a_slice_in_order_with_clock_before_each():
 
 
 def test_world_clock_returns_the_reached_time_and_reports_a_dead_world():
-    class Res(object):
-        sim_time = 1.5
-    assert WorldClock(lambda t: Res(), None).step_to(1.5) == 1.5
+    from types import SimpleNamespace
     seen = []
+    r = SimpleNamespace(sc=SimpleNamespace(apps=[], slice=0.05, pipeline=False), t=1.0,
+                        hands=SimpleNamespace(inputs_sent=False), embedded=False,
+                        rospy=SimpleNamespace(get_name=lambda: '/runner'),
+                        intake=SimpleNamespace(note_times=seen.append),
+                        world=SimpleNamespace(stopped=lambda: seen.append('stopped')),
+                        check_world=lambda: seen.append('checked'),
+                        world_log=lambda: ['last line'])
+    answer = SimpleNamespace(success=True, sim_time=1.5, topics=['/imu', '/fix'],
+                             counts=[10, 1], dropped=[2, 0])
+    r.step_srv = lambda **kw: answer
+    c = WorldClock(r)
+    assert (c.longest, c.settle_every, c.acts) == (0.25, 0.25, True)
+    assert c.step_to(1.5) == 1.5
+    assert c.published == {'/imu': 8, '/fix': 1} and c.dropped == {'/imu': 2}
+    assert seen == [answer]
 
-    def dead(t):
+    def dead(**kw):
         raise IOError('connection refused')
-
-    def on_error(e):
-        seen.append(str(e))
-        raise RuntimeError('world stopped: %s' % e)
-    with pytest.raises(RuntimeError, match='world stopped: connection refused'):
-        WorldClock(dead, on_error).step_to(2.0)
-    assert seen == ['connection refused']
+    r.step_srv = dead
+    with pytest.raises(RunError) as e:
+        c.step_to(2.0)
+    assert str(e.value) == ('the world stopped answering at sim time 1.000 s (step_world: '
+                            'connection refused)')
+    assert e.value.log_lines == ['last line'] and seen[1:] == ['stopped', 'checked']
+    # with apps every slice is a step and a handshake
+    r.sc.apps = [{'name': 'app'}]
+    assert (WorldClock(r).longest, WorldClock(r).settle_every) == (0.05, 0.05)

@@ -134,27 +134,70 @@ def test_tail_of_a_log(tmp_path):
     assert procs.tail(str(tmp_path / 'missing.log')) == []
 
 
-def test_replay_uses_only_the_runners_public_api():
-    tree = ast.parse(open(os.path.join(PKG, "run", "replay.py")).read())
-    private = sorted({n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
-                      and isinstance(n.value, ast.Name) and n.value.id == 'r'
-                      and n.attr.startswith('_')})
-    assert private == []
-    for name in ('start_master', 'init_ros', 'open_recording', 'start_apps',
-                 'subscribe_all', 'write_meta', 'check_world', 'settle', 'drain',
-                 'start_after', 'master_uri', 'missing_topics_are_errors'):
+def test_replay_and_the_clocks_use_only_the_runners_public_api():
+    """replay.py and the clocks drive the run through the Runner's public names."""
+    for rel, var in ((os.path.join('run', 'replay.py'), 'r'), (os.path.join('run', 'clock.py'), 'r')):
+        tree = ast.parse(open(os.path.join(PKG, rel)).read())
+        private = sorted({n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
+                          and isinstance(n.value, ast.Name) and n.value.id == var
+                          and n.attr.startswith('_')})
+        assert private == [], rel
+    for name in ('start_master', 'init_ros', 'open_recording', 'start_apps', 'start_at',
+                 'subscribe_all', 'write_meta', 'check_world', 'drain', 'answered',
+                 'stamp_held', 'start_after', 'master_uri', 'run_timeline'):
         assert hasattr(runner.Runner, name), name
 
 
-def test_every_scenario_action_has_its_method_in_actions():
+def test_one_loop_runs_live_and_replayed_runs():
+    """The live run and the replay both go through Runner.run_timeline; neither the runner
+    nor replay.py has a loop of its own over sim time."""
+    for rel in (os.path.join('run', 'replay.py'), os.path.join('run', 'runner.py')):
+        text = open(os.path.join(PKG, rel)).read()
+        assert 'run_timeline(' in text, rel
+    loops = [rel for rel, tree in _sources() if rel.startswith('run' + os.sep)
+             for node in ast.walk(tree) if isinstance(node, ast.While)
+             and 'step_to' in ast.unparse(node)]
+    assert loops == [os.path.join('run', 'runner.py')]
+
+
+def test_every_scenario_action_is_an_object_of_its_own_class():
     from testing_instance.run import actions
     from testing_instance.scenario import format as scenario
-    names = getattr(scenario, 'ACTIONS', None)
-    methods = {m[len('_act_'):] for m in vars(actions.Actions) if m.startswith('_act_')}
-    assert issubclass(runner.Runner, actions.Actions)
-    assert {'walk', 'publish', 'fault', 'set_environment'} <= methods
-    if names is not None:
-        assert set(names) <= methods
+    assert set(actions.KINDS) == set(scenario.ACTIONS)
+    for name, cls in actions.KINDS.items():
+        assert issubclass(cls, actions.Action) and cls.name == name
+        ev = {'id': 'e', 'action': name}
+        assert isinstance(actions.action_of(ev), cls) and actions.action_of(ev).ev is ev
+    assert not issubclass(runner.Runner, actions.Action) and not hasattr(runner.Runner, '_act_walk')
+
+
+def test_an_action_acts_through_its_hands():
+    """An action calls the world's services, publishes and schedules only through Hands: a
+    rotation reads the pose now, then puts its steps on the agenda; an error answer is the
+    run's error naming the action."""
+    from types import SimpleNamespace
+    from testing_instance.run.actions import Hands, action_of
+    from testing_instance.scenario.results import RunError
+    calls, later = [], []
+
+    def proxy(name, typ):
+        def call(*args):
+            calls.append((name, typ, args))
+            pose = SimpleNamespace(position=SimpleNamespace(x=1.0, y=2.0, z=3.0),
+                                   orientation=SimpleNamespace(x=0.0, y=0.0, z=0.0, w=1.0))
+            return SimpleNamespace(success=name != '/gazebo/delete_model', pose=pose,
+                                   status_message='no model x')
+        return call
+    world = SimpleNamespace(srv_types=dict(get='Get', set='Set', delete='Del'), proxy=proxy,
+                            log_tail=lambda: [])
+    sc = SimpleNamespace(phones=[{'ns': 'mobile_device'}])
+    h = Hands(sc, world, lambda t, fn, what: later.append((t, what)))
+    action_of({'id': 'turn', 'action': 'rotate', 'model': 'm', 'rpy': [0, 0, 1.57],
+               'duration': 0.1, 'interval': 0.05}).apply(h, 2.0)
+    assert calls == [('/gazebo/get_model_state', 'Get', ('m', ''))]
+    assert [round(t, 3) for t, _w in later] == [2.05, 2.1] and later[0][1] == 'turn'
+    with pytest.raises(RunError, match=r'^gone \(delete_model\): no model x$'):
+        action_of({'id': 'gone', 'action': 'delete_model', 'name': 'x'}).apply(h, 3.0)
 
 
 def test_an_actions_publisher_is_woken_by_its_subscriber_connecting_not_by_polling():
@@ -181,9 +224,9 @@ def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(m
     """Action publishers are synchronous (rospy: no queue_size; its warning about that is
     kept quiet): a queued publisher's thread could write after the next step request, and
     the world took a radio switched off at sim time 0 a slice late. Publishing marks the
-    next step as following inputs (Runner._step)."""
+    next step as following inputs (WorldClock.step)."""
     import warnings
-    from testing_instance.run.actions import Actions
+    from testing_instance.run.actions import Hands
     made = []
 
     class Pub(object):
@@ -199,12 +242,11 @@ def test_an_actions_message_is_in_the_subscribers_sockets_when_publish_returns(m
         def publish(self, msg):
             self.sent.append(msg)
     monkeypatch.setattr(rospy, 'Publisher', Pub)
-    a = Actions()
-    a.pubs, a.inputs_sent = {}, False
+    a = Hands(None, None, None)
     with warnings.catch_warnings():
         warnings.simplefilter('error')
-        a._publish('/mobile_device/wifi/enable', String('off'))
-        a._publish('/mobile_device/wifi/enable', String('on'))
+        a.publish('/mobile_device/wifi/enable', String('off'))
+        a.publish('/mobile_device/wifi/enable', String('on'))
     assert [(t, kw['queue_size'], kw['latch']) for t, kw in made] == [
         ('/mobile_device/wifi/enable', None, True)]
     assert [m.data for m in a.pubs[('/mobile_device/wifi/enable', 'std_msgs/String')].sent] \
@@ -222,29 +264,30 @@ def test_a_step_after_an_action_waits_for_an_embedded_worlds_receive_threads(emb
     import time
     from types import SimpleNamespace
     from test_stepgate import busy_receiver
-    from testing_instance.run.runner import Runner
+    from testing_instance.run.clock import WorldClock
     sock, done, th = busy_receiver('/mobile_device/wifi/enable')
     seen = []
 
     def step_srv(**kw):
         seen.append(list(done))
         return SimpleNamespace(success=True, topics=[], counts=[], dropped=[])
-    r = SimpleNamespace(embedded=embedded, inputs_sent=True, step_srv=step_srv,
-                        rospy=SimpleNamespace(get_name=lambda: '/sim_world'),
-                        sc=SimpleNamespace(pipeline=False),
+    r = SimpleNamespace(embedded=embedded, hands=SimpleNamespace(inputs_sent=True),
+                        step_srv=step_srv, rospy=SimpleNamespace(get_name=lambda: '/sim_world'),
+                        sc=SimpleNamespace(pipeline=False, apps=[], slice=0.05),
                         intake=SimpleNamespace(note_times=lambda answer: None))
+    clock = WorldClock(r)
     try:
         time.sleep(0.05)
         sock.send(b'off')                   # what the synchronous publisher wrote
         time.sleep(0.05)
-        Runner._step(r, 0.05)
+        clock.step(0.05)
         assert seen == [[b'off']] if embedded else seen == [[]]
-        assert not r.inputs_sent
+        assert not r.hands.inputs_sent
         while not done:
             time.sleep(0.01)
         sock.send(b'on')
         time.sleep(0.05)
-        Runner._step(r, 0.1)                # no action since the last step: no look
+        clock.step(0.1)                     # no action since the last step: no look
         assert seen[-1] == [b'off']
     finally:
         sock.close()

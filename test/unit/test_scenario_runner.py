@@ -169,23 +169,24 @@ def test_the_start_up_is_told_by_its_phases_which_add_up_to_the_figure():
 
 
 def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(monkeypatch):
-    """sync_replayed: the replay's own messages on the topics subscribed before it began
-    are waited for by count (they come back through this node's own subscriptions), not by
-    a quiet period; then the apps (appwatch), then the held messages are timed. What never
-    comes back is an ERROR naming the topic and the counts."""
+    """ReplayClock.handshake: the replay's own messages on the topics subscribed before it
+    began are waited for by count (they come back through this node's own subscriptions),
+    not by a quiet period; then the apps (appwatch), then the held messages are timed. What
+    never comes back is an ERROR naming the topic and the counts."""
     import threading
     import time
     from types import SimpleNamespace
-    from testing_instance.run import runner as runner_mod
+    from testing_instance.run import clock as clock_mod
     from testing_instance.run.inbox import Inbox
-    from testing_instance.scenario.results import RunError
     from testing_instance.run.runner import Runner
+    from testing_instance.scenario.results import RunError
     order = []
     r = SimpleNamespace(inbox=Inbox(), intake=SimpleNamespace(subs={'/a': 1, '/b': 1}),
                         apps=SimpleNamespace(wait_answered=lambda wake: order.append('apps')),
-                        stamp_held=lambda: order.append('stamped'), replayed_subs=None,
-                        sync_wall=0.0, t=0.05)
-    r._answered = lambda w0: Runner._answered(r, w0)
+                        stamp_held=lambda: order.append('stamped'), sync_wall=0.0, t=0.05,
+                        sc=SimpleNamespace(slice=0.05))
+    r.answered = lambda w0: Runner.answered(r, w0)
+    c = clock_mod.ReplayClock([], None, None, None, '/ev', run=r)
     r.inbox.put(0.01, '/a', 'a1')
 
     def late():
@@ -194,17 +195,20 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
         r.inbox.put(0.02, '/b', 'b1')
     threading.Thread(target=late).start()
     t0 = time.monotonic()
-    Runner.sync_replayed(r, {'/a': 1, '/b': 1, '/not_subscribed': 7})
+    c.counts = {'/a': 1, '/b': 1, '/not_subscribed': 7}
+    c.handshake()
     assert time.monotonic() - t0 >= 0.09
     assert order == ['b arrives', 'apps', 'stamped']
-    assert r.replayed_subs == {'/a', '/b'}
+    assert c.replayed_subs == {'/a', '/b'}
     # a topic subscribed later (it missed the earlier messages) is not counted
     r.intake.subs['/c'] = 1
-    Runner.sync_replayed(r, {'/a': 1, '/b': 1, '/c': 5})
-    monkeypatch.setattr(runner_mod, 'HANDSHAKE_WATCHDOG', 0.05)
+    c.counts = {'/a': 1, '/b': 1, '/c': 5}
+    c.handshake()
+    monkeypatch.setattr(clock_mod, 'HANDSHAKE_WATCHDOG', 0.05)
     r.t = 0.1
+    c.counts = {'/a': 3, '/b': 1}
     with pytest.raises(RunError) as e:
-        Runner.sync_replayed(r, {'/a': 3, '/b': 1})
+        c.handshake()
     assert str(e.value) == ('slice handshake: 0 s of wall time after the replay reached sim '
                             'time 0.100 s, messages it published have not come back: /a (1 of 3)')
 
@@ -214,39 +218,38 @@ def test_topics_are_looked_at_again_when_something_can_have_made_new_ones():
     another process can publish: a sim_world node, apps, other nodes of the launch file. An
     embedded run without them makes it only when this process declared a publisher since
     the last look (at the same sim time: recordings equal the sim_world node's); after a
-    spawn (topics_dirty) and while an expectation's topic is not subscribed, always."""
+    spawn (Hands.spawned) and while an expectation's topic is not subscribed, always."""
     from types import SimpleNamespace
-    from testing_instance.run.runner import TOPIC_RECHECK, Runner
+    from testing_instance.run.clock import TOPIC_RECHECK, WorldClock
     from testing_instance.scenario.timeline import Conditions
 
-    def runner(embedded, apps=(), launch_procs=()):
-        r = SimpleNamespace(embedded=embedded, sc=SimpleNamespace(apps=list(apps)),
+    def clock(embedded, apps=(), launch_procs=()):
+        r = SimpleNamespace(embedded=embedded, sc=SimpleNamespace(apps=list(apps), slice=0.05),
                             world=SimpleNamespace(launch_procs=list(launch_procs)),
-                            topics_dirty=False, topics_new=False, topics_checked=0.0,
-                            t=0.05,
+                            hands=SimpleNamespace(spawned=False), t=0.05,
                             intake=SimpleNamespace(subs={'/a': 1}), expectations=[],
                             conditions=Conditions([]))
-        r._others_publish = lambda: Runner._others_publish(r)
-        return r
-    for r, periodic in ((runner(False), True), (runner(True), False),
-                        (runner(True, apps=[{'name': 'app'}]), True),
-                        (runner(True, launch_procs=[SimpleNamespace(alive=lambda: True)]),
+        return WorldClock(r)
+    for c, periodic in ((clock(False), True), (clock(True), False),
+                        (clock(True, apps=[{'name': 'app'}]), True),
+                        (clock(True, launch_procs=[SimpleNamespace(alive=lambda: True)]),
                          True),
-                        (runner(True, launch_procs=[SimpleNamespace(alive=lambda: False)]),
+                        (clock(True, launch_procs=[SimpleNamespace(alive=lambda: False)]),
                          False)):
-        assert not Runner._topics_stale(r)                  # within TOPIC_RECHECK
+        r = c.run
+        assert not c.topics_stale()                  # within TOPIC_RECHECK
         r.t = TOPIC_RECHECK
-        assert Runner._topics_stale(r) is periodic
-        r.topics_dirty = True
-        assert Runner._topics_stale(r)
-        r.topics_dirty = False
+        assert c.topics_stale() is periodic
+        r.hands.spawned = True
+        assert c.topics_stale()
+        r.hands.spawned = False
         r.expectations = [SimpleNamespace(topic='/b', verdict=None)]   # not subscribed yet
-        assert Runner._topics_stale(r)
+        assert c.topics_stale()
         r.expectations[0].verdict = 'pass'
-        assert Runner._topics_stale(r) is periodic
+        assert c.topics_stale() is periodic
     # a publisher this process declares: the next periodic look is made, not one at once
-    r = runner(True)
-    Runner._new_own_topic(r, '/mobile_device/new_sensor')
-    assert r.topics_new and not Runner._topics_stale(r)
-    r.t = TOPIC_RECHECK
-    assert Runner._topics_stale(r)
+    c = clock(True)
+    c.new_own_topic('/mobile_device/new_sensor')
+    assert c.topics_new and not c.topics_stale()
+    c.run.t = TOPIC_RECHECK
+    assert c.topics_stale()

@@ -1,9 +1,11 @@
-"""The scenario's actions (timeline `action:` entries), a part of the Runner.
+"""The scenario's actions (timeline `action:` entries) as objects.
 
-Each ``_act_<name>(ev, t0)`` applies one action at sim time t0 while the world is paused,
-through the world's services (``self._call``) or topics (``self._publish``); motion actions
-push their steps on the runner's agenda. Mixed into ``Runner``, which provides the service
-proxies, publishers and agenda.
+Each kind of action is a class: ``KINDS`` maps every action name of the scenario format to
+it, ``action_of(ev)`` makes the object of one timeline entry, and ``apply(hands, t0)``
+applies it at sim time t0 while the world is paused. An action acts only through its
+``Hands``: the world's services (``call``), the input topics (``publish``), the models'
+poses, the environment, spawning, and the agenda (``later``) for the steps of a motion
+that come after t0. The runner holds one ``Hands`` per run and fires each due action.
 """
 import subprocess
 import threading
@@ -11,7 +13,7 @@ import threading
 from ..scenario import motion
 from ..scenario.results import RunError
 
-__all__ = ['Actions']
+__all__ = ['Action', 'Hands', 'KINDS', 'action_of']
 
 
 def _set_field(msg, path, value):
@@ -43,28 +45,51 @@ class _Connected(object):
             return self._cv.wait_for(lambda: count() > 0, timeout)
 
 
-class Actions(object):
-    # -- actions ---------------------------------------------------------------------------
-    def _ns(self, ev):
+class Hands(object):
+    """What the actions act through, one per run. ``world``: the run's WorldSide (its
+    service proxies and types, its log); ``later(t, fn, what)``: the run's agenda;
+    ``check_world()``: raises the run's error when a process of the run is gone.
+
+    What the run reads back: ``pubs`` (the input publishers, {(topic, type): publisher}),
+    ``inputs_sent`` (an action published since the last step: the next step lets the
+    world take it first), ``spawned`` (a model was spawned since the last look at the
+    master's topics), ``env_values`` (the environment as last set or seen, where a ramp
+    starts)."""
+
+    def __init__(self, sc, world, later, say=print, check_world=lambda: None):
+        self.sc = sc
+        self.world = world
+        self.later = later
+        self.say = say
+        self.check_world = check_world
+        self.pubs = {}
+        self.inputs_sent = False
+        self.spawned = False
+        self.env_values = {}
+
+    def ns(self, ev):
         return '/' + ev.get('ns', self.sc.phones[0]['ns']).strip('/')
 
-    def _call(self, ev, name, typ, *args):
+    def call(self, ev, name, kind, *args):
+        """Call the world's service ``name`` (its type: the world's ``srv_types[kind]``);
+        an error of the run naming the action when it fails or answers success false."""
+        typ = self.world.srv_types[kind]
         try:
-            res = self.proxy(name, typ)(*args)
+            res = self.world.proxy(name, typ)(*args)
         except Exception as e:  # noqa: BLE001 - service missing or the world died
             self.check_world()
             raise RunError('%s (%s): service %s failed: %s' % (ev['id'], ev['action'], name, e),
-                           self.world_log())
+                           self.world.log_tail())
         if hasattr(res, 'success') and not res.success:
             raise RunError('%s (%s): %s' % (ev['id'], ev['action'], res.status_message))
         return res
 
-    def _model_state(self, ev, model):
-        res = self._call(ev, '/gazebo/get_model_state', self.srv_types['get'], model, '')
+    def model_state(self, ev, model):
+        res = self.call(ev, '/gazebo/get_model_state', 'get', model, '')
         p, q = res.pose.position, res.pose.orientation
         return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
 
-    def _set_pose(self, ev, model, pos, quat, lin=(0, 0, 0), ang=(0, 0, 0), frame=''):
+    def set_pose(self, ev, model, pos, quat, lin=(0, 0, 0), ang=(0, 0, 0), frame=''):
         from mobile_device_sim.msg import ModelState
         s = ModelState()
         s.model_name = model
@@ -74,15 +99,15 @@ class Actions(object):
         s.twist.linear.x, s.twist.linear.y, s.twist.linear.z = (float(v) for v in lin)
         s.twist.angular.x, s.twist.angular.y, s.twist.angular.z = (float(v) for v in ang)
         s.reference_frame = frame
-        self._call(ev, '/gazebo/set_model_state', self.srv_types['set'], s)
+        self.call(ev, '/gazebo/set_model_state', 'set', s)
 
-    def _set_env(self, ev, values):
+    def set_env(self, ev, values):
         from mobile_device_sim.msg import EnvironmentValue
-        self._call(ev, '/gazebo/set_environment', self.srv_types['env'],
-                   [EnvironmentValue(name=k, value=float(v)) for k, v in sorted(values.items())])
+        self.call(ev, '/gazebo/set_environment', 'env',
+                  [EnvironmentValue(name=k, value=float(v)) for k, v in sorted(values.items())])
         self.env_values.update(values)
 
-    def _publisher(self, topic, cls, latch=True):
+    def publisher(self, topic, cls, latch=True):
         """The action publisher of ``topic``: synchronous (no queue_size), so that when
         publish() returns the message's bytes are in every subscriber's socket. A queued
         publisher's own thread could write them after the next step request: the world
@@ -101,17 +126,26 @@ class Actions(object):
             self.pubs[key].connected = connected
         return self.pubs[key]
 
-    def _publish(self, topic, msg):
+    def publish(self, topic, msg):
         """Publish once a subscriber (an app) is connected, at most 5 s of wall time later:
         woken by rospy's SubscribeListener as it connects, not by polling. The next step
-        lets the world take it first (Runner._step: an embedded world's receive threads
+        lets the world take it first (WorldClock.step: an embedded world's receive threads
         settle; a world node's step request waits for them, sim_world.transport's gate)."""
-        pub = self._publisher(topic, type(msg))
+        pub = self.publisher(topic, type(msg))
         pub.connected.wait(pub.get_num_connections, 5.0)
         pub.publish(msg)
         self.inputs_sent = True
 
-    def _spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):
+    def msg_class(self, typ):
+        import roslib.message
+        return roslib.message.get_message_class(typ)
+
+    def stamp(self, t):
+        """A header stamp of sim time t."""
+        import rospy
+        return rospy.Time.from_sec(t)
+
+    def spawn(self, name, path, pos, rpy, namespace='', args=None, ev=None):
         ev = ev or {'id': 'phones', 'action': 'spawn_model'}
         from geometry_msgs.msg import Pose
         if path.endswith('.xacro') or path.endswith('.urdf'):
@@ -133,34 +167,56 @@ class Actions(object):
         pose.position.x, pose.position.y, pose.position.z = pos
         q = motion.quat_from_rpy(*rpy)
         pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
-        self._call(ev, srv, self.srv_types['spawn_urdf'], name, xml, namespace, pose, '')
-        self.topics_dirty = True            # its sensors' topics: subscribe at the next slice
+        self.call(ev, srv, 'spawn_urdf', name, xml, namespace, pose, '')
+        self.spawned = True            # its sensors' topics: subscribe at the next slice
 
-    def _do_action(self, ev, t0):
-        a = ev['action']
-        fn = getattr(self, '_act_' + a)
-        fn(ev, t0)
 
-    def _act_set_model_state(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
+class Action(object):
+    """One timeline entry ``ev`` of action kind ``name``."""
+    name = None
+
+    def __init__(self, ev):
+        self.ev = ev
+
+    def apply(self, hands, t0):
+        """Act at sim time t0 (the world paused) through ``hands``."""
+        raise NotImplementedError
+
+
+class SetModelState(Action):
+    name = 'set_model_state'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        pos, quat = h.model_state(ev, ev['model'])
         if 'position' in ev:
             pos = ev['position']
         if 'rpy' in ev:
             quat = motion.quat_from_rpy(*ev['rpy'])
-        self._set_pose(ev, ev['model'], pos, quat, frame=ev.get('reference_frame', ''))
+        h.set_pose(ev, ev['model'], pos, quat, frame=ev.get('reference_frame', ''))
 
-    def _act_move_model(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
+
+class MoveModel(Action):
+    name = 'move_model'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        pos, quat = h.model_state(ev, ev['model'])
         if 'rpy' in ev:
             quat = motion.quat_from_rpy(*ev['rpy'])
         pts = motion.path_points(pos, ev['waypoints'], ev.get('speed', 0.5),
                                  ev.get('interval', 0.02))
         for dt, p, v in pts:
-            self._push(t0 + dt, lambda tt, p=p, v=v: self._set_pose(ev, ev['model'], p, quat, v),
-                       ev['id'])
+            h.later(t0 + dt, lambda tt, p=p, v=v: h.set_pose(ev, ev['model'], p, quat, v),
+                    ev['id'])
 
-    def _act_walk(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
+
+class Walk(Action):
+    name = 'walk'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        pos, quat = h.model_state(ev, ev['model'])
         base = motion.quat_from_rpy(*ev.get('rpy', [0, 0, 0])) if 'rpy' in ev else quat
         pts = motion.walk_points(pos, ev['waypoints'], ev.get('speed', 1.2),
                                  ev.get('step_frequency', 1.8), ev.get('bounce', 0.02),
@@ -176,32 +232,46 @@ class Actions(object):
                 last_yaw[0] = yaw
                 if yaw is not None:
                     q = motion.quat_mul(motion.quat_from_rpy(0, 0, yaw), base)
-            self._set_pose(ev, ev['model'], p, q, v)
+            h.set_pose(ev, ev['model'], p, q, v)
         for dt, p, v, yaw in pts:
-            self._push(t0 + dt, lambda tt, p=p, v=v, y=yaw: setp(tt, p, v, y), ev['id'])
+            h.later(t0 + dt, lambda tt, p=p, v=v, y=yaw: setp(tt, p, v, y), ev['id'])
 
-    def _act_rotate(self, ev, t0):
-        pos, quat = self._model_state(ev, ev['model'])
+
+class Rotate(Action):
+    name = 'rotate'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        pos, quat = h.model_state(ev, ev['model'])
         for dt, q in motion.rotate_points(quat, ev['rpy'], ev.get('duration', 0.0),
                                           ev.get('interval', 0.02)):
-            self._push(t0 + dt, lambda tt, q=q: self._set_pose(ev, ev['model'], pos, q),
-                       ev['id'])
+            h.later(t0 + dt, lambda tt, q=q: h.set_pose(ev, ev['model'], pos, q), ev['id'])
 
-    def _act_set_environment(self, ev, t0):
-        start = {k: self.env_values.get(k, v) for k, v in ev['values'].items()}
+
+class SetEnvironment(Action):
+    name = 'set_environment'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        start = {k: h.env_values.get(k, v) for k, v in ev['values'].items()}
         for dt, vals in motion.ramp_points(start, ev['values'], ev.get('ramp', 0.0),
                                            ev.get('interval', 0.1)):
             if dt == 0:
-                self._set_env(ev, vals)
+                h.set_env(ev, vals)
             else:
-                self._push(t0 + dt, lambda tt, v=vals: self._set_env(ev, v), ev['id'])
+                h.later(t0 + dt, lambda tt, v=vals: h.set_env(ev, v), ev['id'])
 
-    def _act_playback(self, ev, t0):
+
+class Playback(Action):
+    name = 'playback'
+
+    def apply(self, h, t0):
+        ev = self.ev
         for dt, v in motion.series_points(ev['series']):
             if 'name' in ev:
-                fn = (lambda tt, v=v: self._set_env(ev, {ev['name']: v}))
+                fn = (lambda tt, v=v: h.set_env(ev, {ev['name']: v}))
             else:
-                cls = self._msg_class(ev['type'])
+                cls = h.msg_class(ev['type'])
                 if cls is None:
                     raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
 
@@ -209,49 +279,90 @@ class Actions(object):
                     m = cls()
                     _set_field(m, ev['field'], v)
                     if hasattr(m, 'header'):
-                        m.header.stamp = self.rospy.Time.from_sec(tt)
-                    self._publish(ev['topic'], m)
+                        m.header.stamp = h.stamp(tt)
+                    h.publish(ev['topic'], m)
             if dt <= 0:
                 fn(t0)
             else:
-                self._push(t0 + dt, fn, ev['id'])
+                h.later(t0 + dt, fn, ev['id'])
 
-    def _act_charger(self, ev, t0):
+
+class Charger(Action):
+    name = 'charger'
+
+    def apply(self, h, t0):
         from std_msgs.msg import Bool
-        self._publish(self._ns(ev) + '/charger', Bool(ev['plugged']))
+        h.publish(h.ns(self.ev) + '/charger', Bool(self.ev['plugged']))
 
-    def _act_radio(self, ev, t0):
+
+class Radio(Action):
+    name = 'radio'
+
+    def apply(self, h, t0):
         from std_msgs.msg import Bool
-        self._publish('%s/%s/enable' % (self._ns(ev), ev['radio']), Bool(ev['enabled']))
+        ev = self.ev
+        h.publish('%s/%s/enable' % (h.ns(ev), ev['radio']), Bool(ev['enabled']))
 
-    def _act_press_button(self, ev, t0):
-        self._call(ev, self._ns(ev) + '/press_button', self.srv_types['button'], ev['button'],
-                   ev.get('duration', 0.1))
 
-    def _act_touch(self, ev, t0):
-        self._call(ev, self._ns(ev) + '/inject_touch', self.srv_types['touch'], ev['x'],
-                   ev['y'], ev.get('duration', 0.1), ev.get('pressure', 0.5),
-                   ev.get('x_end', -1.0), ev.get('y_end', -1.0))
+class PressButton(Action):
+    name = 'press_button'
 
-    def _act_show_image(self, ev, t0):
+    def apply(self, h, t0):
+        ev = self.ev
+        h.call(ev, h.ns(ev) + '/press_button', 'button', ev['button'], ev.get('duration', 0.1))
+
+
+class Touch(Action):
+    name = 'touch'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        h.call(ev, h.ns(ev) + '/inject_touch', 'touch', ev['x'], ev['y'],
+               ev.get('duration', 0.1), ev.get('pressure', 0.5), ev.get('x_end', -1.0),
+               ev.get('y_end', -1.0))
+
+
+class ShowImage(Action):
+    name = 'show_image'
+
+    def apply(self, h, t0):
         from std_msgs.msg import String
-        path = self.sc.resolve(ev['file'])
-        self._publish(ev.get('topic', self._ns(ev) + '/load_image_file'), String(path))
+        ev = self.ev
+        path = h.sc.resolve(ev['file'])
+        h.publish(ev.get('topic', h.ns(ev) + '/load_image_file'), String(path))
 
-    def _act_spawn_model(self, ev, t0):
-        self._spawn(ev['name'], self.sc.resolve(ev['file']), ev.get('position', [0, 0, 0]),
-                    ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), ev.get('args'), ev)
 
-    def _act_delete_model(self, ev, t0):
-        self._call(ev, '/gazebo/delete_model', self.srv_types['delete'], ev['name'])
+class SpawnModel(Action):
+    name = 'spawn_model'
 
-    def _act_fault(self, ev, t0):
-        self._call(ev, '/gazebo/set_sensor_fault', self.srv_types['fault'],
-                   ev.get('model', self.sc.phones[0]['ns']), ev['sensor'], ev['fault'],
-                   float(ev.get('value', 0.0)))
+    def apply(self, h, t0):
+        ev = self.ev
+        h.spawn(ev['name'], h.sc.resolve(ev['file']), ev.get('position', [0, 0, 0]),
+                ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), ev.get('args'), ev)
 
-    def _act_publish(self, ev, t0):
-        cls = self._msg_class(ev['type'])
+
+class DeleteModel(Action):
+    name = 'delete_model'
+
+    def apply(self, h, t0):
+        h.call(self.ev, '/gazebo/delete_model', 'delete', self.ev['name'])
+
+
+class Fault(Action):
+    name = 'fault'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        h.call(ev, '/gazebo/set_sensor_fault', 'fault', ev.get('model', h.sc.phones[0]['ns']),
+               ev['sensor'], ev['fault'], float(ev.get('value', 0.0)))
+
+
+class Publish(Action):
+    name = 'publish'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        cls = h.msg_class(ev['type'])
         if cls is None:
             raise RunError('%s: unknown message type %r' % (ev['id'], ev['type']))
         m = cls()
@@ -261,7 +372,21 @@ class Actions(object):
         except Exception as e:  # noqa: BLE001 - genpy raises several kinds
             raise RunError('%s: cannot fill a %s from %r: %s' % (ev['id'], ev['type'],
                                                                  ev.get('msg'), e))
-        self._publish(ev['topic'], m)
+        h.publish(ev['topic'], m)
 
-    def _act_log(self, ev, t0):
-        self.say('  t=%.3f s: %s' % (t0, ev['text']))
+
+class Log(Action):
+    name = 'log'
+
+    def apply(self, h, t0):
+        h.say('  t=%.3f s: %s' % (t0, self.ev['text']))
+
+
+KINDS = {cls.name: cls for cls in (
+    SetModelState, MoveModel, Walk, Rotate, SetEnvironment, Playback, Charger, Radio,
+    PressButton, Touch, ShowImage, SpawnModel, DeleteModel, Fault, Publish, Log)}
+
+
+def action_of(ev):
+    """The action object of timeline entry ``ev``."""
+    return KINDS[ev['action']](ev)

@@ -7,8 +7,9 @@ times, with /clock before each; the scenario's apps start again and see exactly 
 recorded inputs; the same expectations are evaluated on what comes out. The recorded
 timeline events (/scenario/events) start the 'after' windows at their recorded times;
 actions are not applied again (their effects are in the recorded inputs). Time advances in
-slices of the scenario's ``slice``; after each slice the runner waits until the apps'
-outputs have arrived, as in a live run.
+slices of the scenario's ``slice`` by the run's one loop (``Runner.run_timeline``) with a
+``ReplayClock``; after each slice the runner waits until the apps' outputs have arrived, as
+in a live run.
 """
 import json
 import math
@@ -177,21 +178,12 @@ def replay_run(r):
         if stamp_of(m) is None:     # timed by its recorded time (_time_held)
             r.intake.input_at(topic, t)
         pubs[topic].publish(m)
-    src = ReplayClock(msgs, publish,
-                      lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
-                      lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC)
-    end = r.t0 + float(meta.get('duration', r.sc.duration))
+    r.clock = ReplayClock(msgs, publish,
+                          lambda t: clock.publish(Clock(rospy.Time.from_sec(t))),
+                          lambda ev, t: r.start_after(ev['id'], t), EVENTS_TOPIC, run=r)
     # unstamped messages: the recording's by their recorded times, the apps' at the end of
     # the slice, as live
     r.intake.input_node, r.intake.hold_unstamped = rospy.get_name(), True
-    while True:
-        r.check_world()
-        r.t = src.step_to(min(end, r.t + r.sc.slice))
-        r.sync_replayed(src.counts)        # exactly what it published, and the apps' answers
-        r.subscribe_all(wait_connections=False)
-        r.drain()
-        if r.t >= end - 1e-9:
-            break
-    r.stamp_held(last=True)                # a pipelined run's answers to the last slice
-    r.drain()
-    r.missing_topics_are_errors('is neither in the recording nor published by an app')
+    # the run's one loop, each step a slice and a handshake (exactly what the replay
+    # published, then the apps' answers), to the recording's end
+    r.run_timeline(r.clock, r.t0 + float(meta.get('duration', r.sc.duration)))

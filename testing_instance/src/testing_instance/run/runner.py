@@ -16,17 +16,21 @@ Exit codes: 0 every expectation passed, 1 at least one failed, 2 error (the scen
 invalid, the world could not start or died, an action failed, a topic never appeared, a
 field does not exist, the watchdog fired).
 
-The Runner is the loop; each of its jobs is an object of its own module:
+The Runner holds the one loop (``run_timeline``, live and replayed alike); each of its
+jobs is an object of its own module:
 
-- ``worldside.WorldSide``: the master and the world (embedded, launched, warm, attached),
-  its services, its processes watched, its log;
-- ``apps.Apps``: the scenario's apps started, ready, finished or crashed, answered;
+- ``world.worldside.WorldSide``: the master and the world (embedded, launched, warm,
+  attached), its services, its processes watched, its log;
+- ``world.apps.Apps``: the scenario's apps started, ready, finished or crashed, answered;
 - ``intake.Intake``: the subscriptions and each message's sim time, into the
   ``inbox.Inbox`` (the slice's messages for the expectations) and the
   ``recording.Recorder`` (``--record``);
-- ``timeline``: the agenda, the `when` conditions and the slice rule (pure); ``clock``: the world's lockstep or a
-  recording's replay; ``actions.Actions``: the timeline's actions; ``expect``: the
-  expectations' verdicts; ``results``: the result and JUnit.
+- ``clock``: what drives the one loop (``run_timeline``): the world's lockstep
+  (``WorldClock``) or a recording's replay (``ReplayClock``, set up by ``replay``);
+- ``actions``: the timeline's actions as objects, acting through the run's ``Hands``;
+- ``scenario.timeline``: the agenda, the `when` conditions and the slice rule (pure);
+  ``scenario.expect``: the expectations' verdicts; ``scenario.results``: the result and
+  JUnit.
 """
 import os
 import shutil
@@ -35,39 +39,26 @@ import tempfile
 import threading
 import time
 
-from sim_world import transport
-
-from ..world import procs
-from .actions import Actions, _set_field  # noqa: F401 - re-exported
-from ..world.apps import Apps
-from .clock import WorldClock
 from ..scenario.expect import Expectation, FieldError, Verdict  # noqa: F401 - Verdict re-exported
+from ..scenario.format import ScenarioError, load
+from ..scenario.results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
+from ..scenario.timeline import Agenda, ConditionError, Conditions, next_stop
+from ..world import procs
+from ..world.apps import Apps
+from ..world.procs import free_port  # noqa: F401 - re-exported
+from ..world.worldside import (LAUNCHES, PKG_ROOT, WorldSide,  # noqa: F401 - re-exported
+                               launch_args, start_pose, world_key)
+from .actions import Hands, action_of
+from .clock import WorldClock
 from .inbox import Inbox
 from .intake import Intake
-from ..world.procs import free_port  # noqa: F401 - re-exported
 from .recording import EVENTS_TOPIC, HEAVY_TYPES, META_TOPIC, Recorder  # noqa: F401
-from ..scenario.results import EXIT_ERROR, EXIT_FAIL, EXIT_PASS, Result, RunError, write_junit
-from ..scenario.format import ScenarioError, load
-from ..scenario.timeline import Agenda, ConditionError, Conditions, next_stop
-from ..world.worldside import (LAUNCHES, PKG_ROOT, WorldSide,  # noqa: F401 - re-exported
-                        launch_args, start_pose, world_key)
-
-MAX_SLICE = 0.25         # s of sim time between checks when nothing else is due (the
-                         # sensors' publisher queues hold 100 messages: lossless at 100 Hz)
-SETTLE_EVERY = 0.25      # s of sim time: wait for in-flight messages at least this often
-HANDSHAKE_WATCHDOG = 30.0    # wall s: the world's counted messages must be in by then
-TOPIC_RECHECK = 1.0      # s of sim time: ask the master for new topics at least this often
 
 __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS', 'EXIT_FAIL',
            'EXIT_ERROR']
 
 
-def _counts_line(missing):
-    """'topic (received of wanted), ...' of Inbox.wait_counts' missing topics."""
-    return ', '.join('%s (%d of %d)' % (t, got, n) for t, (got, n) in sorted(missing.items()))
-
-
-class Runner(Actions):
+class Runner(object):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
                  warm=None, embedded=False, on_start=None):
@@ -99,18 +90,15 @@ class Runner(Actions):
         self.storage_problems = []      # lines of the recording's storage faults
         self.conditions = Conditions(scenario.timeline)   # the `when`s; what happened when
         self.timed_out = False
-        self.env_values = {}
-        self.pubs = {}
         self.t = 0.0
         self.report_dir, self.collector = report, None      # --report DIR (report.py)
-        self.published = None      # {topic: n} the world handed us, from the last step
         self.sync_wall = 0.0       # wall s spent waiting for slices to complete
-        self.replayed_subs = None  # a replay: the topics it counts (sync_replayed)
-        self.topics_checked = 0.0  # sim time of the last look at the master's topics
-        self.topics_dirty = False  # a model was spawned since: look again at once
-        self.inputs_sent = False   # an action published since the last step
-        self.topics_new = False    # embedded: this process declared a publisher since
         self.topic_looks = 0       # looks at the master's topics (the handshake line)
+        self.agenda = Agenda()     # what is due at a sim time: actions, motion steps
+        # the timeline's actions act through these (the world's services, the inputs)
+        self.hands = Hands(scenario, self.world, self.agenda.push, self.say, self.check_world)
+        # what drives the loop: the world in lockstep (a replay makes its own: replay.py)
+        self.clock = None if replay else WorldClock(self)
 
     # -- the public API a clock source drives (replay.py; the live loop uses the same) ----
     def start_after(self, event_id, t):
@@ -123,20 +111,13 @@ class Runner(Actions):
     def master_uri(self):
         return self.world.master_uri()
 
-    # the world's side (worldside.py): what the actions, replay.py and warm.py ask of it
+    # the world's side (worldside.py): what the clocks, replay.py and warm.py ask of it
     port = property(lambda self: self.world.port,
                     lambda self, port: setattr(self.world, 'port', port))
     embedded = property(lambda self: self.world.embedded)
-    srv_types = property(lambda self: self.world.srv_types)
     get_state = property(lambda self: self.world.get_state)
-    proxy = property(lambda self: self.world.proxy)
     world_log = property(lambda self: self.world.log_tail)
     start_master = property(lambda self: self.world.start_master)     # a replay's master
-
-    def missing_topics_are_errors(self, why):
-        for e in self.expectations:
-            if e.topic not in self.intake.subs and e.verdict is None:
-                e.error('topic %s %s' % (e.topic, why))
 
     @property
     def event_times(self):
@@ -195,14 +176,7 @@ class Runner(Actions):
         self.intake.start(rospy, self.embedded, self._own_topics)
         self.world.init_node(rospy, self.intake.on_message)
         if self.embedded:
-            self.intake.on_new_publisher(self._new_own_topic)
-
-    def _new_own_topic(self, topic):
-        """A publisher declared in this process (an embedded world's): the next periodic
-        look at the master's topics is not skipped (_topics_stale). Not a look at once:
-        the sim_world node's runs look by the same sim-time rule, and a latched message's
-        time in the recording is when it was subscribed."""
-        self.topics_new = True
+            self.intake.on_new_publisher(self.clock.new_own_topic)
 
     def _world_settings(self):
         """Attached: the seed and real-time factor are the running world's."""
@@ -224,8 +198,9 @@ class Runner(Actions):
             if self.attach and self.world.has_model(ph['ns']):
                 continue
             xacro = os.path.join(PKG_ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
-            self._spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]), ph.get('rpy', [0, 0, 0]),
-                        '/' + ph['ns'].strip('/'), dict(ph.get('args') or {}))
+            self.hands.spawn(ph['ns'], xacro, ph.get('position', [0, 0, 1]),
+                             ph.get('rpy', [0, 0, 0]), '/' + ph['ns'].strip('/'),
+                             dict(ph.get('args') or {}))
 
     def check_world(self):
         """Every process of the run still there? An error naming the first one that is not,
@@ -254,10 +229,6 @@ class Runner(Actions):
             raise RunError('the ROS master stopped answering at sim time %.3f s (%s)'
                            % (self._fault_t(), e), self.world_log())
 
-    def _msg_class(self, typ):
-        import roslib.message
-        return roslib.message.get_message_class(typ)
-
     def _wanted_topics(self):
         want = {}
         for e in self.expectations:
@@ -285,32 +256,6 @@ class Runner(Actions):
         return self.intake.subscribe(self._wanted_topics(), self._check_fields,
                                      self.apps.names(), wait_connections)
 
-    def _topics_stale(self):
-        """Look for new topics now? After a spawn, while a topic that an expectation or a
-        waiting condition reads is not subscribed yet, and every TOPIC_RECHECK s of sim time
-        (a master round trip per slice was the runner's largest cost in a recording run)
-        unless nothing can have declared a publisher since the last look: an embedded run
-        without other processes that may publish, where this process declared none."""
-        if self.topics_dirty:
-            return True
-        if self.t - self.topics_checked >= TOPIC_RECHECK - 1e-9 and (
-                self.topics_new or self._others_publish()):
-            return True
-        subs = self.intake.subs
-        if any(e.topic not in subs and e.verdict is None for e in self.expectations):
-            return True
-        return self.conditions.unsubscribed(subs)
-
-    def _others_publish(self):
-        """Can a process other than this one declare a publisher on this run's master? Not
-        in an embedded run without apps and with no other node of its launch file still
-        running (the phone's spawner has exited by sim time 0; a node that exits
-        unregisters its publishers): the master is the run's own (its port is the run's),
-        rosout publishes before the first look, and this process's new publishers are
-        heard (_new_own_topic)."""
-        return not self.embedded or bool(self.sc.apps) or any(
-            p.alive() for p in self.world.launch_procs)
-
     def _check_fields(self, topic, cls):
         proto = cls()
         for e in self.expectations:
@@ -321,67 +266,21 @@ class Runner(Actions):
                     e.error('field %r does not exist on %s: %s' % (e.field, cls._type, err))
 
     def _own_topics(self):
-        """The topics this runner's actions publish on (Actions._publisher)."""
-        return {topic for topic, _typ in self.pubs}
+        """The topics this runner's actions publish on (Hands.publisher)."""
+        return {topic for topic, _typ in self.hands.pubs}
 
     def settle(self, quiet=0.02, longest=3.0):
         """Wait until no message arrived for ``quiet`` s of wall time (the world is paused:
         what is still on its way belongs to the slice just run)."""
         self.inbox.settle(quiet, longest)
 
-    def _sync(self):
-        """The slice handshake: wait until every message of the slice just run is in.
-        The world's messages exactly (its step answer counts what it handed to this node's
-        connections), the apps' by evidence (appwatch), topics of other publishers by a
-        quiet period. A generous watchdog names what never arrived."""
-        w0 = time.monotonic()
-        if self.published is None and self.world_node is not None:
-            self._step_to(self.t)            # paused: only asks for the counts
-        intake = self.intake
-        want = {t: n for t, n in (self.published or {}).items() if t in intake.subs}
-        self.published = None
-        missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG)
-        if missing:
-            self.check_world()
-            raise RunError('slice handshake: %.0f s of wall time after the step to sim time '
-                           '%.3f s, messages the world published have not arrived: %s'
-                           % (HANDSHAKE_WATCHDOG, self.t, _counts_line(missing)),
-                           self.world_log())
-        # topics of the world it does not count (outside its counted publishers)
-        intake.uncounted.update(t for t in intake.world_topics if t not in want and
-                                t in intake.subs and self.world_node is not None and
-                                getattr(self, '_counted_once', False))
-        self._counted_once = True
-        if intake.uncounted:
-            self.inbox.settle(0.02)
-        self._answered(w0)
-
-    def _answered(self, w0):
-        """The end of a slice handshake begun at wall time ``w0``, live or replayed: the
-        apps have answered (appwatch), the held unstamped messages are timed."""
+    def answered(self, w0):
+        """The end of a slice handshake begun at wall time ``w0``, live or replayed (the
+        clock's handshake): the apps have answered (appwatch), the held unstamped messages
+        are timed."""
         self.apps.wait_answered(self.inbox.wake)
         self.stamp_held()
         self.sync_wall += time.monotonic() - w0
-
-    def sync_replayed(self, published):
-        """A replay's slice handshake: wait until every message the replay published on a
-        topic this node subscribes to (``published``: {topic: n so far}, ReplayClock.counts)
-        has come back through its subscription (rospy connects this node to itself over TCP),
-        then for the apps by evidence (appwatch), as live. No quiet period: a replay waited
-        30 ms of wall time after each 0.05 s slice, most of a replay's wall time. A
-        generous watchdog names what never arrived."""
-        w0 = time.monotonic()
-        if self.replayed_subs is None:
-            # the topics subscribed before the replay published anything (it subscribes
-            # everything it wants first): a later subscription missed the earlier messages
-            self.replayed_subs = set(self.intake.subs)
-        want = {t: n for t, n in published.items() if t in self.replayed_subs}
-        missing = self.inbox.wait_counts(want, HANDSHAKE_WATCHDOG, world=False)
-        if missing:
-            raise RunError('slice handshake: %.0f s of wall time after the replay reached sim '
-                           'time %.3f s, messages it published have not come back: %s'
-                           % (HANDSHAKE_WATCHDOG, self.t, _counts_line(missing)))
-        self._answered(w0)
 
     def _world_nodes(self):
         """[(name, pid)] of a world node of its own, for the app watch: one handling an input
@@ -423,7 +322,7 @@ class Runner(Actions):
             if self.collector is not None:
                 self.collector.feed(t, topic, msg)
             if topic == '/gazebo/environment':
-                self.env_values = {v.name: v.value for v in msg.values}
+                self.hands.env_values = {v.name: v.value for v in msg.values}
 
     # -- events ----------------------------------------------------------------------------
     def _push(self, t, fn, what):
@@ -435,7 +334,7 @@ class Runner(Actions):
             return
         self.say('  t=%.3f s: %s (%s)' % (t, ev['id'], ev['action']))
         self.recorder.event(t, 'event', id=ev['id'], action=ev['action'])
-        self._do_action(ev, t)
+        action_of(ev).apply(self.hands, t)
         for e in self.expectations:
             if e.after == ev['id']:
                 e.start(t)
@@ -465,7 +364,6 @@ class Runner(Actions):
         self.by_topic = {}
         for e in self.expectations:
             self.by_topic.setdefault(e.topic, []).append(e)
-        self.agenda = Agenda()
         if self.report_dir:
             from ..report import Collector
             self.collector = Collector(self, self.report_dir, 'replay' if self.replay else 'live')
@@ -542,11 +440,11 @@ class Runner(Actions):
             for name, before in self.warm.settle():
                 self.say(procs.deaf_warning('app %s of scenario %s' % (name, before),
                                             ' (this start-up waited for it)'))
-        self.start_at(self._step_to(0.0))       # paused now (attach: wherever it was)
+        self.start_at(self.clock.step_to(0.0))  # paused now (attach: wherever it was)
         self._phase('first step')
         self.intake.input_node, self.intake.hold_unstamped = self.world_node, True
         self.subscribe_all()
-        self._sync()
+        self.clock.handshake()
         self.drain()
         self._phase('subscribing')
         self.startup = procs.age() if procs.first_run() else time.monotonic() - self.wall0
@@ -557,7 +455,7 @@ class Runner(Actions):
             if 'at' in ev:
                 self._push(self.t0 + ev['at'], lambda tt, e=ev: self._fire(e, tt), ev['id'])
         w0, s0 = time.monotonic(), self.t
-        self._loop(self._step_to)
+        self.run_timeline(self.clock, self.t0 + self.sc.duration)
         self.loop_wall = (time.monotonic() - w0, self.t - s0)
 
     def startup_phases(self):
@@ -576,38 +474,13 @@ class Runner(Actions):
             prev = t
         return out
 
-    def _step_to(self, t_next):
-        return WorldClock(self._step, self._world_stopped).step_to(t_next)
-
-    def _step(self, until, pipeline=None):
-        if self.inputs_sent:
-            self.inputs_sent = False
-            if self.embedded:
-                # this process's receive threads take the actions' messages off their
-                # sockets before the step (a world node's step request waits for its own)
-                transport.settle()
-        r = self.step_srv(until=until, subscriber=self.rospy.get_name(),
-                          pipeline=self.sc.pipeline if pipeline is None else pipeline)
-        if not r.success:
-            raise RunError('the world refused the step to sim time %.3f s: %s'
-                           % (until, r.status_message), self.world_log())
-        self.intake.note_times(r)
-        self.published = {t: c - d for t, c, d in zip(r.topics, r.counts, r.dropped)}
-        self.dropped = {t: d for t, d in zip(r.topics, r.dropped) if d}
-        return r
-
-    def _world_stopped(self, e):
-        self.world.stopped()                 # roslaunch tears down after its node died
-        self.check_world()
-        raise RunError('the world stopped answering at sim time %.3f s (step_world: %s)'
-                       % (self.t, e), self.world_log())
-
-    def _loop(self, step_to):
-        end = self.t0 + self.sc.duration
+    def run_timeline(self, clock, end):
+        """The one loop of a run, live or replayed, from the sim time now to ``end``: the
+        due agenda entries, then a step of ``clock`` to the next instant that matters, a
+        slice handshake when due, the slice's messages fed to the expectations, and the
+        `when` conditions; at the end the last slice's messages and the topics that never
+        appeared."""
         last_settle = self.t
-        # apps answer asynchronously: with apps, wait for them every slice, so that their
-        # outputs are timed to within a slice
-        settle_every = self.sc.slice if self.sc.apps else SETTLE_EVERY
         while True:
             self.check_world()
             due = self.agenda.pop_due(self.t)
@@ -616,40 +489,31 @@ class Runner(Actions):
                 due = self.agenda.pop_due(self.t)
             if self.t >= end - 5e-4:
                 break
-            nxt = next_stop(self.t, end, self.sc.slice if self.sc.apps else MAX_SLICE,
-                            self.agenda.next_time(), bool(self.conditions.pending()),
-                            self.sc.slice)
-            self.t = step_to(nxt)
+            nxt = next_stop(self.t, end, clock.longest, self.agenda.next_time(),
+                            bool(self.conditions.pending()), self.sc.slice)
+            self.t = clock.step_to(nxt)
             # wait for the slice's messages when a topic condition waits for them, and at
             # least every settle_every s of sim time (so apps keep up); short motion slices
             # in between only step (sim-time rule: the same slices settle in every run)
             # (pipelined: every step, as the next one sends the apps what this one made)
             if self.sc.pipeline or self.conditions.wait_for_messages() or \
-                    self.t - last_settle >= settle_every - 1e-9:
-                self._sync()
+                    self.t - last_settle >= clock.settle_every - 1e-9:
+                clock.handshake()
                 last_settle = self.t
-                if self._topics_stale():   # topics that appeared late (apps, spawned models)
-                    # (before the look: a publisher declared meanwhile marks it again)
-                    self.topics_dirty = self.topics_new = False
-                    self.subscribe_all()
-                    self.topics_checked = self.t
+                clock.look()       # topics that appeared late (apps, spawned models)
             self.drain()
-            self._check_conditions()
-        # the last slice's messages (the handshake: exactly those the world handed over)
-        self._sync()
-        if self.sc.pipeline:
-            # the apps have not had the last slice yet: it is sent now, and what they answer
-            # is timed at the end
-            self._step(self.t, pipeline=False)
-            self._sync()
+            if clock.acts:
+                self._check_conditions()
+        clock.finish()
         self.drain()
         # topics an expectation waits for that never appeared
         for e in self.expectations:
             if e.topic not in self.intake.subs and e.verdict is None:
                 known = sorted(t for t in self.intake.topic_types if t.startswith(
                     '/' + e.topic.strip('/').split('/')[0] + '/'))
-                e.error('topic %s never appeared%s' % (
-                    e.topic, ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
+                e.error('topic %s never appeared%s%s' % (
+                    e.topic, clock.absent,
+                    ' (similar topics: %s)' % ', '.join(known[:8]) if known else ''))
 
     def write_meta(self):
         """The recording's meta: seed, inputs (what a replay feeds), t0, duration, types,
@@ -677,7 +541,7 @@ class Runner(Actions):
         self.world.close_proxies()
         if self.warm is not None and not gone:
             # the next scenario in this process starts its inputs afresh (sequence numbers)
-            for pub in self.pubs.values():
+            for pub in self.hands.pubs.values():
                 try:
                     pub.unregister()
                 except Exception:  # noqa: BLE001 - not a rospy publisher
@@ -707,13 +571,13 @@ class Runner(Actions):
                      % (self.startup, ' (%s)' % parts if parts else ''))
         if self.world_node is not None and not self.replay:
             got = sum(self.inbox.from_world.values())
-            self.dropped = {t: d for t, d in getattr(self, 'dropped', {}).items()
-                            if t in self.intake.subs}   # (rospy's own /clock: not ours)
-            lost = sum(self.dropped.values())
+            dropped = {t: d for t, d in self.clock.dropped.items()
+                       if t in self.intake.subs}   # (rospy's own /clock: not ours)
+            lost = sum(dropped.values())
             self.say('handshake: %d messages from the world, %d dropped by its queues%s; '
                      '%.2f s of wall time waiting for slices%s; %d looks for new topics' % (
                          got, lost, '' if not lost else ' (%s)' % ', '.join(
-                             '%s %d' % kv for kv in sorted(self.dropped.items())),
+                             '%s %d' % kv for kv in sorted(dropped.items())),
                          self.sync_wall, '' if self.apps.waited is None else
                          ' (%.2f s of it for the apps to answer)' % self.apps.waited,
                          self.topic_looks))

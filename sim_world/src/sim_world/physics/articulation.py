@@ -178,8 +178,9 @@ def build_articulation(model):
         if spec is None:
             if not welded:
                 raise ModelError('%s is not static but its root link %r (with the links '
-                                 'fixed to it) has no <inertial> with a positive mass'
-                                 % (what, root))
+                                 'fixed to it) has no <inertial> with a positive mass (a '
+                                 'fixed-base robot: add <link name="world"/> and a fixed '
+                                 'joint from it to %r, as Gazebo wants)' % (what, root, root))
             anchor = True
             spec = BodySpec('%s::%s' % (model.name, root), False, 0.0, Pose(), np.zeros(3),
                             False, [], offsets)

@@ -68,6 +68,7 @@ Contacts have Coulomb friction ``mu`` (1.0, Gazebo's default) and no bounce.
 """
 import logging
 import math
+import os
 
 import numpy as np
 
@@ -285,6 +286,7 @@ def lump_links(model, offsets, static, require_mass=True, name=None):
     shapes = []
     masses, centres, tensors = [], [], []
     gravity_flags = []
+    missing = []
     for lname in offsets:
         link = model.links[lname]
         lpose = offsets[lname]
@@ -304,6 +306,15 @@ def lump_links(model, offsets, static, require_mass=True, name=None):
                                      % (what, lname, list(n)))
             elif g.kind == 'mesh':
                 path = model.resolve_path(g.filename)
+                if not os.path.isfile(path):
+                    # issue 48: a URI that does not resolve is one warning, and the model
+                    # spawns without that collision (pybullet_data ships xarm6 and panda
+                    # without their collision meshes); a static model left with nothing
+                    # is refused below
+                    missing.append(path)
+                    log.warning('%s link %r: collision mesh %s not found: the link has no '
+                                'collision shape for it', what, lname, g.filename)
+                    continue
                 try:
                     mesh = load_mesh(path, g.scale)
                 except ModelError as e:
@@ -328,6 +339,9 @@ def lump_links(model, offsets, static, require_mass=True, name=None):
         centres.append(ipose.p)
         tensors.append(r.dot(t).dot(r.T))
     name = name or model.name
+    if static and missing and not shapes:
+        raise ModelError('%s: mesh file %s not found, and the static model has no other '
+                         'collision' % (what, missing[0]))
     if static:
         return BodySpec(name, True, 0.0, Pose(), np.zeros(3), True, shapes, offsets)
     if not masses:

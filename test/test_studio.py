@@ -301,10 +301,22 @@ def test_drag_the_handle_record_and_run(studio, page):
     assert 'scenario: PASS' in text, text
 
 
+def test_the_page_shows_a_banner_with_the_log_tail_when_the_world_dies(studio, page):
+    from testing_instance.world.procs import cmdline
+    world = [k for k in descendants(studio['proc'].pid) if '__name:=sim_world' in cmdline(k)]
+    assert len(world) == 1
+    assert page.get_by_test_id('world-gone').is_hidden()
+    os.kill(world[0], signal.SIGKILL)
+    page.wait_for_function("!document.querySelector('[data-testid=world-gone]').hidden",
+                           timeout=60000)
+    text = page.get_by_test_id('world-gone').text_content()
+    assert 'the world exited' in text and 'sim_world' in text, text
+
+
 def test_ctrl_c_leaves_no_process_behind(studio, page):
     p = studio['proc']
     kids = descendants(p.pid)
-    assert len(kids) >= 3            # the studio, its master, roslaunch and the world
+    assert len(kids) >= 3            # the studio, its master and rosout (the world died)
     os.kill(p.pid, signal.SIGINT)
     p.wait(60)
     deadline = time.monotonic() + 20

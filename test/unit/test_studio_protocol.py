@@ -322,3 +322,16 @@ def test_websocket_clients_stream_poses_and_one_holds_control():
     assert rb2['ok'], 'control did not pass on when its holder left'
     assert s.world.calls == [('play',), ('pause',)]
     assert poses >= 1 and images and images[0].startswith(b'\xff\xd8')
+
+
+def test_a_gone_world_is_in_the_stream_with_its_log_tail():
+    s = studio()
+    assert json.loads(s.poses_message())['world_gone'] is None
+    s.health = lambda: ('the world exited (roslaunch 1)', ['[sim_world-1] process has died'])
+    s.check_world()
+    gone = json.loads(s.poses_message())['world_gone']
+    assert gone == {'error': 'the world exited (roslaunch 1)',
+                    'log': ['[sim_world-1] process has died']}
+    s.health = lambda: None
+    s.check_world()
+    assert json.loads(s.poses_message())['world_gone'] is None

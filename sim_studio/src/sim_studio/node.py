@@ -62,6 +62,22 @@ def _scene_models(rospy):
     return out
 
 
+def _health(started, uri):
+    """None while the world is there; else why not and the last lines of its log."""
+    from .launcher import world_running
+
+    def health():
+        if started is not None:
+            if not started.alive():
+                return 'the world exited (roslaunch %s)' % started.launch.p.returncode, \
+                    started.log_tail()
+            return None
+        if not world_running(uri):
+            return 'the world at %s is gone (no /gazebo/get_model_state)' % uri, []
+        return None
+    return health
+
+
 def main(argv=None):
     import signal
     import rospy
@@ -107,6 +123,7 @@ def main(argv=None):
         studio = Studio(world, _scene_models(rospy), rate=a.rate, camera_rate=a.camera_rate,
                         token=token, run_dir=run_dir,
                         launch=a.world if a.world == 'office' else os.path.abspath(a.world))
+        studio.health = _health(started, uri)
         app = make_app(studio)
         loop = asyncio.new_event_loop()
         asyncio.set_event_loop(loop)

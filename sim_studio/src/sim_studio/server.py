@@ -92,6 +92,9 @@ class Studio(object):
         self.runs = 0
         self.last_jpeg = None
         self.want_camera = False
+        self.health = None           # () -> None or (why the world is gone, log tail)
+        self.world_gone = None
+        self._health_at = 0.0
         self.log = lambda text: print(text, flush=True)
 
     # -- the one command handler --------------------------------------------------------
@@ -231,7 +234,18 @@ class Studio(object):
     def poses_message(self):
         return json.dumps({'v': protocol.VERSION, 'type': 'poses', 't': self.world.clock,
                            'rtf': round(self.world.rtf(), 3), 'poses': self.world.poses(),
-                           'recording': self.recorder.on}, separators=(',', ':'))
+                           'recording': self.recorder.on, 'world_gone': self.world_gone},
+                          separators=(',', ':'))
+
+    def check_world(self):
+        """Ask ``health()`` (None while the world is there, else (why, [log tail lines]))
+        and keep its answer in ``world_gone`` for the stream (the page's banner)."""
+        if self.health is None:
+            return
+        gone = self.health()
+        if gone and not self.world_gone:
+            self.log('studio: %s' % gone[0])
+        self.world_gone = {'error': gone[0], 'log': list(gone[1])} if gone else None
 
     async def stream(self):
         """Poses to every client at ``rate`` Hz; the camera's JPEG at most camera_rate Hz."""
@@ -254,6 +268,9 @@ class Studio(object):
 
     async def _stream_once(self, loop, cam_period):
         """One tick: the poses to every client, and the camera image when it is due."""
+        if self.health is not None and time.monotonic() - self._health_at > 1.0:
+            self._health_at = time.monotonic()
+            await loop.run_in_executor(None, self.check_world)
         if self.clients:
             msg = self.poses_message()
             for c in self.clients:

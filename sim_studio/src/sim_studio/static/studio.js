@@ -221,6 +221,11 @@
         studio.simTime = m.t;
         $('simtime').textContent = m.t.toFixed(3);
         $('rtf').textContent = m.rtf.toFixed(2);
+        const banner = $('banner');
+        banner.hidden = !m.world_gone;
+        if (m.world_gone) {
+          banner.textContent = m.world_gone.error + '\n' + m.world_gone.log.join('\n');
+        }
       } else if (m.type === 'hello') {
         studio.name = m.name;
         showRecording(m.recording, m.yaml);

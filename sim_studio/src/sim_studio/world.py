@@ -4,7 +4,6 @@ instance's actions call (/gazebo/set_model_state, <ns>/inject_touch, <ns>/press_
 reset), and the latest of what the world publishes (/gazebo/model_states, /clock, the
 phone camera's image). The subscribers only keep the latest message: nothing here can hold
 the world back."""
-import math
 import re
 import threading
 import time
@@ -211,7 +210,3 @@ class WorldLink(object):
             a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
         ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
         return buf.tobytes() if ok else None
-
-
-def finite(*vals):
-    return all(math.isfinite(v) for v in vals)

@@ -27,8 +27,8 @@ from ..scenario.format import ScenarioError
 __all__ = ['Run', 'plan', 'run_local', 'summarise', 'write_outputs', 'main', 'NODE',
            'verdict_lines', 'run_command']
 
-NODE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..', 'nodes',
-                    'run_scenario')      # testing_instance/nodes/run_scenario
+NODE = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
+                                    '..', 'nodes', 'run_scenario'))   # testing_instance/nodes
 EXIT_PASS, EXIT_FAIL, EXIT_ERROR = 0, 1, 2
 STATUS = {EXIT_PASS: 'PASS', EXIT_FAIL: 'FAIL'}
 _VERDICT = re.compile(r'^(PASS|FAIL|ERROR) (\w+): ', re.M)

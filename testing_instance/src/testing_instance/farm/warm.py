@@ -50,8 +50,8 @@ from ..scenario.results import EXIT_ERROR, RunError
 
 __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
 
-NODE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..', 'nodes',
-                    'run_scenario')      # testing_instance/nodes/run_scenario
+NODE = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
+                                    '..', 'nodes', 'run_scenario'))   # testing_instance/nodes
 CORE_NODES = ('/rosout', '/sim_world', '/scenario_runner')
 RSS_GROWTH = 1.5              # relaunch a world node grown by half (WarmHost._grown)
 CORE_PARAMS = ('/run_id', '/rosdistro', '/rosversion', '/use_sim_time')

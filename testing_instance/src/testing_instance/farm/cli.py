@@ -3,8 +3,8 @@ import os
 import sys
 import time
 
-from .command import expand, parser, run_one
 from ..run.runner import EXIT_ERROR, EXIT_FAIL, EXIT_PASS
+from .command import expand, parser, run_one
 
 __all__ = ['main', 'replay_main', 'farm']
 

@@ -45,8 +45,8 @@ import time
 
 from sim_world.netutil import master_port, wait_for_service
 
-from ..world import procs
 from ..scenario.results import EXIT_ERROR, RunError
+from ..world import procs
 
 __all__ = ['WarmHost', 'Pool', 'worker_main', 'NODE']
 

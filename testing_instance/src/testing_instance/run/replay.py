@@ -16,11 +16,11 @@ import math
 import re
 import time
 
+from ..scenario.results import RunError
+from ..world.procs import poll
 from .clock import ReplayClock
 from .intake import stamp_of
-from ..world.procs import poll
 from .recording import EVENTS_TOPIC, META_TOPIC, read_meta
-from ..scenario.results import RunError
 
 __all__ = ['replay_run', 'read_meta', 'load_recording', 'Loaded']
 

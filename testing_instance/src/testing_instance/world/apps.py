@@ -14,9 +14,9 @@ import os
 import re
 import time
 
+from ..scenario.results import RunError
 from .appwatch import AppHung, AppWatch
 from .procs import PreApp, Proc, outbound, poll, tail
-from ..scenario.results import RunError
 
 __all__ = ['Apps', 'python_node']
 

@@ -18,9 +18,9 @@ remote connection), and its service calls to the world are function calls
 import logging
 import os
 
+from ..scenario.results import RunError
 from . import procs
 from .procs import Proc
-from ..scenario.results import RunError
 
 __all__ = ['LaunchPlan', 'plan_launch', 'WORLD_NODE']
 

@@ -24,9 +24,9 @@ import time
 
 from sim_world.netutil import master_port, wait_for_service
 
+from ..scenario.results import RunError
 from . import procs
 from .procs import poll, tail
-from ..scenario.results import RunError
 
 __all__ = ['WorldSide', 'LAUNCHES', 'launch_args', 'start_pose', 'world_key']
 

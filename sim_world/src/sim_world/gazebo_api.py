@@ -354,7 +354,8 @@ class GazeboRosApi(object):
                         states.name.append(name)
                         states.pose.append(pose.to_msg(PoseMsg()))
                         states.twist.append(_twist_msg(lin, ang))
-                    if want_tf and not model.static:
+                    if want_tf and not model.static and \
+                            tf_frame(model, model.root_link) != 'world':   # welded robots
                         tfs.append(_transform('world', tf_frame(model, model.root_link), pose,
                                               stamp))
         self.publish_clock(stamp, repeat=bool(self.paused))

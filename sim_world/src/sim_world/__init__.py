@@ -4,4 +4,4 @@ sdf, mesh), physics (ODE, Bullet), the offscreen renderer, the plugin SDK (``sim
 and the world's ROS layer (``node``, ``gazebo_api``, ``world_services``, ``spawn``)."""
 
 #: plugin modules of this package (sim_world.plugins finds them here); the SDK holds none
-PLUGIN_MODULES = ['sim_world.control.joint_state_publisher']
+PLUGIN_MODULES = ['sim_world.control.joint_state_publisher', 'sim_world.control.ros_control']

@@ -1,0 +1,138 @@
+"""The simulator's hardware for ros_control (gazebo_ros_control's DefaultRobotHWSim, issue 48
+part 4): the joints named by the URDF's ``<transmission>`` elements with their
+``hardwareInterface`` (Position/Velocity/EffortJointInterface; ``mechanicalReduction`` is
+ignored, as DefaultRobotHWSim does), read and commanded through the world's physics.
+
+- effort: the command clamped to the joint's ``<limit effort>`` (when > 0), applied for the
+  next step (the physics then truncates it as Gazebo's CheckAndTruncateForce);
+- position: kinematic (the joint set to the command, its velocity zero; the other joints keep
+  their velocities), as DefaultRobotHWSim without PID gains;
+- velocity: the joint's velocity set to the command every step.
+
+Not a plugin module: the world seam has no joint commands, so this adapter (like joint_api)
+talks to ``world.physics``; the plugin (control/ros_control.py) reaches it only through it.
+"""
+import xml.etree.ElementTree as ET
+
+__all__ = ['Transmission', 'parse_transmissions', 'RobotHWSim', 'TransmissionError']
+
+KINDS = {'PositionJointInterface': 'position', 'VelocityJointInterface': 'velocity',
+         'EffortJointInterface': 'effort'}
+KEY = 'gazebo_ros_control'
+
+
+class TransmissionError(ValueError):
+    pass
+
+
+class Transmission(object):
+    def __init__(self, name, joint, interfaces):
+        self.name, self.joint, self.interfaces = name, joint, interfaces
+
+    def __repr__(self):
+        return '<Transmission %s: %s %s>' % (self.name, self.joint, self.interfaces)
+
+
+def _iface(text, where):
+    short = (text or '').strip().split('/')[-1]
+    if short not in KINDS:
+        raise TransmissionError('%s: hardwareInterface %r is not one of %s'
+                                % (where, (text or '').strip(),
+                                   ', '.join('hardware_interface/' + k for k in KINDS)))
+    return KINDS[short]
+
+
+def parse_transmissions(xml_text):
+    """The ``<transmission>`` elements of a URDF (both the joint-level hardwareInterface of
+    ros_control and the older actuator-level one). TransmissionError naming a bad one."""
+    if not xml_text:
+        return []
+    root = ET.fromstring(xml_text)
+    out = []
+    for t in root.iter('transmission'):
+        name = t.get('name') or '?'
+        where = 'transmission %r' % name
+        j = t.find('joint')
+        if j is None or not j.get('name'):
+            raise TransmissionError('%s has no <joint name="...">' % where)
+        hw = [e.text for e in j.findall('hardwareInterface')]
+        if not hw:
+            hw = [e.text for a in t.findall('actuator') for e in a.findall('hardwareInterface')]
+        if not hw:
+            raise TransmissionError('%s: joint %r has no <hardwareInterface>' % (where, j.get('name')))
+        out.append(Transmission(name, j.get('name'), [_iface(h, where) for h in hw]))
+    return out
+
+
+class RobotHWSim(object):
+    """``interfaces``, ``state``, ``command``, ``limits``, ``write`` of one model."""
+
+    def __init__(self, world, model_name, transmissions):
+        self.world = world
+        self.model = model_name
+        self.physics = world.physics
+        names = self.physics.joint_names(model_name)
+        self.interfaces = {}
+        for tr in transmissions:
+            if tr.joint not in names:
+                raise TransmissionError('transmission %r: joint %r is not a simulated joint '
+                                        'of model %r (joints: %s)' % (tr.name, tr.joint, model_name,
+                                                                     ', '.join(names) or 'none'))
+            if not self.physics.joint(model_name, tr.joint).type in \
+                    ('revolute', 'continuous', 'prismatic'):
+                raise TransmissionError('transmission %r: joint %r is not movable'
+                                        % (tr.name, tr.joint))
+            # DefaultRobotHWSim uses the first interface of a joint and warns for more
+            self.interfaces.setdefault(tr.joint, set()).update(tr.interfaces)
+        self.efforts = {}         # joint -> last effort sent (after the clamp)
+        self._pending = {}        # joint -> (kind, value) of this step
+
+    def all_joints(self):
+        return [j for j in self.physics.joint_names(self.model)
+                if self.physics.joint(self.model, j).type in ('revolute', 'continuous', 'prismatic')]
+
+    def joint_type(self, joint):
+        return self.physics.joint(self.model, joint).type
+
+    def limits(self, joint):
+        j = self.physics.joint(self.model, joint)
+        lo, hi = j.lower, j.upper
+        if j.type == 'continuous':
+            lo = hi = None
+        return lo, hi, j.effort
+
+    def state(self, joint):
+        q, v = self.physics.joint_state(self.model, joint)
+        return q, v, self.efforts.get(joint, 0.0)
+
+    def command(self, joint, kind, value):
+        self._pending[joint] = (kind, float(value))
+
+    def release(self, joint):
+        self._pending.pop(joint, None)
+        self.efforts.pop(joint, None)
+        self.physics.clear_joint_efforts(self.model, joint, key=KEY)
+
+    def write(self):
+        if not self._pending:
+            return
+        ph, m = self.physics, self.model
+        positions = {}
+        for joint, (kind, v) in self._pending.items():
+            if kind == 'effort':
+                lim = self.physics.joint(m, joint).effort
+                e = max(-lim, min(lim, v)) if lim > 0 else v
+                self.efforts[joint] = e
+                ph.apply_joint_effort(m, joint, e, steps=1, key=KEY)
+            elif kind == 'position':
+                positions[joint] = v
+            elif kind == 'velocity':
+                ph.set_joint_velocity(m, joint, v)
+        if positions:
+            keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
+                        if j not in positions)
+            ph.set_joint_positions(m, positions)
+            for j, v in keep.items():
+                if v:
+                    ph.set_joint_velocity(m, j, v)
+        self._pending.clear()

@@ -1,0 +1,63 @@
+"""libgazebo_ros_control.so (issue 48 part 4): gazebo_ros_control's plugin. It reads the
+model's ``<transmission>`` elements (sim_world.control.robot_hw), holds a controller manager
+(sim_world.control.controllers) and updates it every physics step in sim time.
+
+Parameters: ``robotNamespace``, ``controlPeriod`` (s; 0 or absent: every physics step),
+``robotSimType`` (only ``gazebo_ros_control/DefaultRobotHWSim``). A model without a
+transmission, or a bad one, is one error naming it; the model stays.
+"""
+from ..plugins import Plugin, PluginError, register
+from ..plugins.params import Param
+from .controllers import ControllerManager
+from .robot_hw import RobotHWSim, TransmissionError, parse_transmissions
+
+__all__ = ['GazeboRosControl']
+
+
+@register('libgazebo_ros_control.so')
+class GazeboRosControl(Plugin):
+    PARAMS = [
+        Param('controlPeriod', float, 0.0, check=lambda v: v >= 0, doc='s of sim time (0: every step)'),
+        Param('robotSimType', str, 'gazebo_ros_control/DefaultRobotHWSim',
+              check=lambda v: v == 'gazebo_ros_control/DefaultRobotHWSim',
+              doc='only gazebo_ros_control/DefaultRobotHWSim'),
+    ]
+
+    def load(self):
+        p = self.parse(self.PARAMS)
+        try:
+            trans = parse_transmissions(self.model.source_xml)
+        except (TransmissionError, SyntaxError) as e:
+            raise PluginError('%s: %s' % (self.label, e))
+        if not trans:
+            raise PluginError('%s: model %r has no <transmission>' % (self.label, self.model.name))
+        model, plugin_id = self.model.name, id(self)
+        try:
+            self.hw = self.world.shared('gazebo_ros_control/%s/%x' % (model, plugin_id),
+                                        lambda w: RobotHWSim(w, model, trans))
+        except TransmissionError as e:
+            raise PluginError('%s: %s' % (self.label, e))
+        self.manager = ControllerManager(self.hw, log=self.world.log)
+        self.update_rate = 1.0 / p.controlPeriod if p.controlPeriod > 0 else 0.0
+        self.last_time = None
+
+    def update(self, sim_time):
+        dt = self.world.step_size if self.last_time is None else sim_time - self.last_time
+        self.last_time = sim_time
+        self.manager.update(sim_time, dt)
+
+    def spawn(self, name, params):
+        """Load and start a controller now (the spawner's work)."""
+        return self.manager.spawn(name, params, t=self.world.sim_time)
+
+    def reset(self):
+        self.last_time = None
+        for c in self.manager.controllers.values():
+            if c.running:
+                c.starting(self.world.sim_time)
+
+    def shutdown(self):
+        for c in list(self.manager.controllers.values()):
+            c.running = False
+            for j in c.claimed():
+                self.hw.release(j)

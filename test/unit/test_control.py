@@ -182,12 +182,15 @@ def test_two_controllers_on_one_joint_are_refused_and_a_switch_frees_it():
         w.shutdown()
 
 
-def test_a_model_without_transmission_is_one_error_and_stays(caplog):
+def test_no_transmission_is_a_warning_and_a_bad_one_an_error_the_model_stays(caplog):
     w = World(physics='ode', seed=1)
     try:
-        with caplog.at_level(logging.ERROR):
+        with caplog.at_level(logging.WARNING):
             w.add_model(parse_urdf(pendulum().source_xml.replace('</robot>', PLUGIN + '</robot>')))
         assert 'pend' in w.models and 'no <transmission>' in caplog.text
+        ok, msg = control_plugin(w, 'pend').spawn(
+            'c', {'type': 'effort_controllers/JointEffortController', 'joint': 'hinge'})
+        assert not ok and "'hinge' has no transmission (joints with one: none)" in msg
         caplog.clear()
         bad = transmission('hinge', 'TorqueInterface')
         with caplog.at_level(logging.ERROR):

@@ -4,7 +4,8 @@ model's ``<transmission>`` elements (sim_world.control.robot_hw), holds a contro
 
 Parameters: ``robotNamespace``, ``controlPeriod`` (s; 0 or absent: every physics step),
 ``robotSimType`` (only ``gazebo_ros_control/DefaultRobotHWSim``). A model without a
-transmission, or a bad one, is one error naming it; the model stays.
+transmission is one warning (the plugin runs with no joint, as Gazebo's); a bad
+transmission is one error naming it, and the model stays without the plugin.
 """
 from ..plugins import Plugin, PluginError, register
 from ..plugins.params import Param
@@ -30,7 +31,9 @@ class GazeboRosControl(Plugin):
         except (TransmissionError, SyntaxError) as e:
             raise PluginError('%s: %s' % (self.label, e))
         if not trans:
-            raise PluginError('%s: model %r has no <transmission>' % (self.label, self.model.name))
+            # Gazebo's plugin runs then with no joint to control: one warning, as it does
+            self.world.log.warning('%s: model %r has no <transmission>: no joint to control',
+                                   self.label, self.model.name)
         model, plugin_id = self.model.name, id(self)
         try:
             self.hw = self.world.shared('gazebo_ros_control/%s/%x' % (model, plugin_id),

@@ -136,11 +136,13 @@ class JointStateController(Controller):
         if joints is None:
             self.joints = sorted(self.hw.all_joints())
         else:
-            if not isinstance(joints, (list, tuple)) or not all(isinstance(j, str) for j in joints):
+            if not isinstance(joints, (list, tuple)) or \
+                    not all(isinstance(j, str) for j in joints):
                 raise ControllerError('%s/joints must be a list of joint names' % self.name)
             for j in joints:
                 if j not in self.hw.all_joints():
-                    raise ControllerError('%s/joints: %r is not a joint of the robot' % (self.name, j))
+                    raise ControllerError('%s/joints: %r is not a joint of the robot'
+                                          % (self.name, j))
             self.joints = list(joints)
         self.last = None          # (t, names, positions, velocities, efforts)
         self.samples = 0

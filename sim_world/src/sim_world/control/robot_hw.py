@@ -19,6 +19,7 @@ __all__ = ['Transmission', 'parse_transmissions', 'RobotHWSim', 'TransmissionErr
 KINDS = {'PositionJointInterface': 'position', 'VelocityJointInterface': 'velocity',
          'EffortJointInterface': 'effort'}
 KEY = 'gazebo_ros_control'
+MOVABLE = ('revolute', 'continuous', 'prismatic')
 
 
 class TransmissionError(ValueError):
@@ -59,7 +60,8 @@ def parse_transmissions(xml_text):
         if not hw:
             hw = [e.text for a in t.findall('actuator') for e in a.findall('hardwareInterface')]
         if not hw:
-            raise TransmissionError('%s: joint %r has no <hardwareInterface>' % (where, j.get('name')))
+            raise TransmissionError('%s: joint %r has no <hardwareInterface>'
+                                    % (where, j.get('name')))
         out.append(Transmission(name, j.get('name'), [_iface(h, where) for h in hw]))
     return out
 
@@ -78,8 +80,7 @@ class RobotHWSim(object):
                 raise TransmissionError('transmission %r: joint %r is not a simulated joint '
                                         'of model %r (joints: %s)' % (tr.name, tr.joint, model_name,
                                                                      ', '.join(names) or 'none'))
-            if not self.physics.joint(model_name, tr.joint).type in \
-                    ('revolute', 'continuous', 'prismatic'):
+            if self.physics.joint(model_name, tr.joint).type not in MOVABLE:
                 raise TransmissionError('transmission %r: joint %r is not movable'
                                         % (tr.name, tr.joint))
             # DefaultRobotHWSim uses the first interface of a joint and warns for more
@@ -89,7 +90,7 @@ class RobotHWSim(object):
 
     def all_joints(self):
         return [j for j in self.physics.joint_names(self.model)
-                if self.physics.joint(self.model, j).type in ('revolute', 'continuous', 'prismatic')]
+                if self.physics.joint(self.model, j).type in MOVABLE]
 
     def joint_type(self, joint):
         return self.physics.joint(self.model, joint).type

@@ -18,7 +18,8 @@ __all__ = ['GazeboRosControl']
 @register('libgazebo_ros_control.so')
 class GazeboRosControl(Plugin):
     PARAMS = [
-        Param('controlPeriod', float, 0.0, check=lambda v: v >= 0, doc='s of sim time (0: every step)'),
+        Param('controlPeriod', float, 0.0, check=lambda v: v >= 0,
+              doc='s of sim time (0: every step)'),
         Param('robotSimType', str, 'gazebo_ros_control/DefaultRobotHWSim',
               check=lambda v: v == 'gazebo_ros_control/DefaultRobotHWSim',
               doc='only gazebo_ros_control/DefaultRobotHWSim'),

@@ -40,6 +40,27 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 OFFICE = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
 PHONE = os.path.join(ROOT, 'sim_world', 'urdf', 'mobile_device.urdf.xacro')
 T_FAULT, T_NFC, T_END = 0.6, 1.695, 2.2     # T_NFC: 5 ms before an NFC tick
+#: an articulated model beside the office (issue 48): a pendulum welded to the world, let go
+#: at 0.5 rad, with the joint plugins (joint states at 50 Hz, ros_control's transmission)
+PENDULUM = '''<robot name="pendulum"><link name="world"/>
+<joint name="fix" type="fixed"><parent link="world"/><child link="base"/><origin xyz="0 0 2"/></joint>
+<link name="base"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial></link>
+<joint name="hinge" type="continuous"><parent link="base"/><child link="rod"/><axis xyz="0 1 0"/></joint>
+<link name="rod"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>
+<inertia ixx="0.001" iyy="0.001" izz="0.001"/></inertial>
+<collision><origin xyz="0 0 -0.5"/><geometry><sphere radius="0.05"/></geometry></collision></link>
+<transmission name="t"><type>transmission_interface/SimpleTransmission</type>
+<joint name="hinge"><hardwareInterface>hardware_interface/EffortJointInterface</hardwareInterface></joint>
+<actuator name="m"><mechanicalReduction>1</mechanicalReduction></actuator></transmission>
+<gazebo><plugin name="jsp" filename="libgazebo_ros_joint_state_publisher.so">
+<jointName>hinge</jointName><updateRate>50</updateRate></plugin>
+<plugin name="control" filename="libgazebo_ros_control.so"/></gazebo></robot>'''
+
+
+def _add_pendulum(w):
+    from sim_world.urdf import parse_urdf
+    w.add_model(parse_urdf(PENDULUM), pose=Pose((12.0, 12.0, 0.0)))
+    w.physics.set_joint_positions('pendulum', {'hinge': 0.5})
 NOISE = 10.0
 
 #: every plugin of the repository's plugin modules (not test doubles registered by tests)
@@ -62,6 +83,7 @@ def _run(fault=None, value=0.0):
     w = World(physics='ode', seed=11)
     w.load_world_file(OFFICE)
     w.add_model(load_urdf_file(PHONE), pose=Pose((6.8, -3.0, 1.0)))
+    _add_pendulum(w)
     for name, ps in w.plugins.items():        # video textures: not stepped here
         for p in ps:
             if not isinstance(p, Device):
@@ -133,6 +155,7 @@ def _instances():
     try:
         w.load_world_file(OFFICE)
         w.add_model(load_urdf_file(PHONE), pose=Pose((6.8, -3.0, 1.0)))
+        _add_pendulum(w)
         out = {}
         for ps in w.plugins.values():
             for p in ps:
@@ -160,7 +183,8 @@ def test_no_plugin_overrides_update(cls):
 
 @pytest.mark.parametrize('cls', CLASSES, ids=lambda c: c.__name__)
 def test_every_registered_plugin_is_in_the_fault_runs(cls):
-    """A new plugin joins the fault contract by being in the phone or the office world."""
+    """A new plugin joins the fault contract by being in the phone, the office world or the
+    pendulum beside it."""
     assert cls.__name__ in INSTANCES
 
 

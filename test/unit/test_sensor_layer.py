@@ -349,15 +349,24 @@ def _all_plugin_classes():
 
 
 def _robot_with(filename, rate):
+    # a link on a hinge too, for the plugins that need a joint (the joint state publisher)
+    joint = ('<jointName>j</jointName>'
+             if filename == 'libgazebo_ros_joint_state_publisher.so' else '')
     return parse_urdf('''<robot name="r"><link name="base">
       <inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial>
       <visual><geometry><box size="0.12 0.06 0.01"/></geometry></visual>
       <collision><geometry><box size="0.12 0.06 0.01"/></geometry></collision></link>
+      <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+        <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+      <link name="arm"><inertial><origin xyz="0.05 0 0"/><mass value="0.01"/>
+        <inertia ixx="1e-5" iyy="1e-5" izz="1e-5"/></inertial></link>
       <gazebo reference="base"><turnGravityOff>true</turnGravityOff>
         <sensor type="camera" name="s"><update_rate>%g</update_rate>
           <camera><image><width>8</width><height>8</height></image></camera>
           <plugin name="p" filename="%s"><updateRate>%g</updateRate><bodyName>base</bodyName>
-          </plugin></sensor></gazebo></robot>''' % (rate, filename, rate))
+          %s</plugin></sensor></gazebo>
+      <gazebo reference="arm"><turnGravityOff>true</turnGravityOff></gazebo></robot>''' % (
+        rate, filename, rate, joint))
 
 
 def test_every_plugin_module_is_found():

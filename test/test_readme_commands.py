@@ -66,8 +66,22 @@ def world(tmp_path_factory):
         env = dict(env, ROS_HOME=os.path.join(ROOT, 'build', 'ros_home'))
         os.makedirs(env['ROS_HOME'], exist_ok=True)
         env['MDS_README_TMP'] = str(tmp)
-        env['MDS_README_MODELS'] = ' '.join(_models(env) or [])
+        env['MDS_README_MODELS'] = ' '.join(_launched_models(env))
         yield env
+
+
+def _launched_models(env, timeout=180.0):
+    """The models once office.launch's spawners are done (the phone and the flycam are
+    there), the ones the reset between pages keeps."""
+    deadline = time.monotonic() + timeout
+    names = None
+    while time.monotonic() < deadline:
+        names = _models(env) or []
+        if 'mobile_device' in names and 'flycam' in names:
+            return names
+        time.sleep(1.0)
+    raise AssertionError('office.launch did not spawn the phone and the flycam within %.0f s '
+                         '(models: %s)' % (timeout, names))
 
 
 def _bash(cmd):

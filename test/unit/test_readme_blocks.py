@@ -107,3 +107,12 @@ def test_the_pages_are_found_anew():
     assert 'sim_world/README.md' in pages
     assert 'sim_world/src/sim_world/physics/README.md' in pages
     assert not any(p.startswith('build/') for p in pages)
+
+
+def test_a_here_document_belongs_to_its_command(tmp_path):
+    blocks = _blocks(tmp_path, "```sh\ncat > /tmp/x.urdf <<'URDF'\n<robot name=\"x\"/>\nURDF\n"
+                               "rosrun mobile_device_sim spawn_model -file /tmp/x.urdf -model x\n```\n")
+    cmds = blocks[0].commands
+    assert [c.text.split('\n')[0] for c in cmds] == [
+        "cat > /tmp/x.urdf <<'URDF'", 'rosrun mobile_device_sim spawn_model -file /tmp/x.urdf -model x']
+    assert cmds[0].text.split('\n')[1:] == ['<robot name="x"/>', 'URDF']

@@ -251,9 +251,12 @@ def test_readme_page_commands_work_as_typed(page, world):
             for cmd in block.commands:
                 log = os.path.join(tmp, '%s_%d.log' % (page.replace('/', '_'), cmd.line))
                 ran += 1
+                env = _command_env(world, block_env, cmd)
+                if cmd.text.split()[:1] == ['roscore'] and '-p' not in cmd.text.split():
+                    # roscore takes 11311 whatever ROS_MASTER_URI says: the block's port
+                    cmd.text += ' -p %s' % env['ROS_MASTER_URI'].rsplit(':', 1)[1]
                 try:
-                    p = _run_command(cmd, _command_env(world, block_env, cmd), log,
-                                     cmd.background)
+                    p = _run_command(cmd, env, log, cmd.background)
                     if p is not None:
                         background.append(p)
                 except Failure as e:

@@ -53,9 +53,12 @@ def studio(tmp_path_factory):
                ROS_HOSTNAME='localhost', ROS_LOG_DIR=str(d / 'roslog'))
     env.pop('RAY_ADDRESS', None)
     log = open(str(d / 'studio.log'), 'w+')
+    # started with SIGINT ignored, as a background job of a non-interactive shell (CI) starts
+    # it: Ctrl-C must still stop it (test_ctrl_c_leaves_no_process_behind)
     p = subprocess.Popen([sys.executable, NODE, '--port', '0', 'camera_rate:=5',
                           'flycam:=false', 'seed:=1'], env=env, stdout=log,
-                         stderr=subprocess.STDOUT, start_new_session=True)
+                         stderr=subprocess.STDOUT, start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     url, deadline = None, time.monotonic() + 120
     while url is None:
         text = open(log.name).read()

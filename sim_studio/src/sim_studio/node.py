@@ -85,6 +85,9 @@ def main(argv=None):
     def _term(_sig, _frame):
         raise KeyboardInterrupt
     signal.signal(signal.SIGTERM, _term)       # stopped like Ctrl-C: its world goes too
+    # Ctrl-C stops it even when it was started with SIGINT ignored (a child of a
+    # non-interactive shell's background job, CI): Python then installs no handler itself
+    signal.signal(signal.SIGINT, _term)
     # not rospy.myargv: it drops every name:=value, and those are the launch arguments
     argv = list(sys.argv if argv is None else argv)[1:]
     a = parser().parse_args(argv)

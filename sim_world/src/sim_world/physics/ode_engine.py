@@ -124,17 +124,8 @@ class OdeEngine(PhysicsEngine):
             bpose = frames[gi] * spec.com
             body.setPosition(tuple(bpose.p))
             body.setQuaternion(_wxyz(bpose.q))
-            selfc = g.self_collide
-            for shape in spec.shapes:
-                for geom, sub in self._make_geoms(shape, self._dyn_space):
-                    geom.setBody(body)
-                    off = g.com_inv * shape.pose
-                    if sub is not None:
-                        off = off * sub
-                    geom.setOffsetPosition(tuple(off.p))
-                    geom.setOffsetQuaternion(_wxyz(off.q))
-                    geoms.append((geom, shape, sub))
-                    self._geom_group[geom] = selfc
+            for geom, _shape, _sub in self._attach_geoms(body, spec.shapes, g.com_inv, geoms):
+                self._geom_group[geom] = g.self_collide
             g.native = body
             bodies.append(body)
         joints = []
@@ -278,6 +269,23 @@ class OdeEngine(PhysicsEngine):
         self._dirty = True
 
     # ---- building ----------------------------------------------------------------------
+    def _attach_geoms(self, body, shapes, com_inv, geoms):
+        """Makes each shape's geoms on body, offset from the body's centre of mass (com_inv:
+        the inverse of the com pose in the body's link frame); appends (geom, shape, sub) to
+        geoms and returns the ones made here."""
+        made = []
+        for shape in shapes:
+            for geom, sub in self._make_geoms(shape, self._dyn_space):
+                geom.setBody(body)
+                off = com_inv * shape.pose
+                if sub is not None:
+                    off = off * sub
+                geom.setOffsetPosition(tuple(off.p))
+                geom.setOffsetQuaternion(_wxyz(off.q))
+                made.append((geom, shape, sub))
+        geoms.extend(made)
+        return made
+
     def _make_geoms(self, shape, space):
         """[(geom, offset Pose in the shape's frame)] for one collision shape."""
         g = shape.geometry
@@ -322,15 +330,7 @@ class OdeEngine(PhysicsEngine):
             bpose = pose * spec.com
             body.setPosition(tuple(bpose.p))
             body.setQuaternion(_wxyz(bpose.q))
-            for shape in spec.shapes:
-                for geom, sub in self._make_geoms(shape, self._dyn_space):
-                    geom.setBody(body)
-                    off = rec.com_inv * shape.pose
-                    if sub is not None:
-                        off = off * sub
-                    geom.setOffsetPosition(tuple(off.p))
-                    geom.setOffsetQuaternion(_wxyz(off.q))
-                    geoms.append((geom, shape, sub))
+            self._attach_geoms(body, spec.shapes, rec.com_inv, geoms)
             rec.native = {'body': body, 'geoms': geoms}
         for geom, _, _ in geoms:
             self._geom_model[geom] = rec.name

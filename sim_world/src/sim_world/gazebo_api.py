@@ -112,6 +112,8 @@ class GazeboRosApi(object):
                                             self._set_state_topic, queue_size=100)
         from .joint_api import JointRosApi     # joint and link services (issue 48)
         self.joint_api = JointRosApi(self)
+        from .attacher import LinkAttacher      # /gazebo/attach, /gazebo/detach
+        self.attacher = LinkAttacher(self)
 
     def attach(self, world, spawned=None):
         """Serve ``world`` from now on (sim_world's /gazebo/reload_world swaps in a new one;

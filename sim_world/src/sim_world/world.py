@@ -547,6 +547,7 @@ class World(object):
         (reset_simulation)."""
         self.flush()
         with self.lock:
+            self.physics.detach_all()      # the link attacher's joints (a run starts free)
             for name, pose in self._initial.items():
                 self.set_state(name, pose.copy())
                 self.physics.reset_joints(name)    # joints to their spawn values, at rest

@@ -397,6 +397,8 @@ class PhysicsEngine(object):
         self.pose_version = 0
         self._wrenches = {}          # model name -> {key: [force, torque, next row, steps left]}
         self._wrench_seq = 0
+        from .attachments import Attachments
+        self._attached = Attachments(self)   # the link attacher's fixed joints
 
     # ---- model bookkeeping -------------------------------------------------------------
     def add_model(self, model):
@@ -433,6 +435,7 @@ class PhysicsEngine(object):
 
     def remove_model(self, name):
         rec = self._get(name)
+        self._attached.drop_model(name)
         self._remove(rec)
         del self._models[name]
         self._wrenches.pop(name, None)
@@ -524,6 +527,8 @@ class PhysicsEngine(object):
             self._place_static(rec, pose)
         else:
             self._set_body_pose(rec, pose * rec.spec.com)
+        if self._attached.items:
+            self._attached.moved(name)
 
     def model_twist(self, name):
         return self.model_state(name)[1:]
@@ -647,6 +652,8 @@ class PhysicsEngine(object):
         full.update(positions)
         self.pose_version += 1
         self._set_joint_positions(rec, full)
+        if self._attached.items:
+            self._attached.moved(name)
 
     def set_joint_velocity(self, name, joint, velocity):
         """Give a movable joint a velocity (rad/s or m/s) relative to its parent, its
@@ -741,6 +748,26 @@ class PhysicsEngine(object):
         if rec.art is not None:
             self.pose_version += 1
             self._reset_joints(rec)
+            if self._attached.items:
+                self._attached.moved(name)
+
+    # ---- the link attacher (sim_world.physics.attachments) ----------------------------------
+    def attach(self, model1, link1, model2, link2):
+        """Fix link2 of model2 to link1 of model1 where they are now (model1 holds).
+        False if exactly this attachment exists already; KeyError / ValueError naming a bad
+        model or link, the same link twice, two links of one model, two static models."""
+        return self._attached.attach(model1, link1, model2, link2)
+
+    def detach(self, model1, link1, model2, link2):
+        """Remove that attachment; False if there was none."""
+        return self._attached.detach(model1, link1, model2, link2)
+
+    def detach_all(self):
+        self._attached.clear()
+
+    def attachments(self):
+        """[(model1, link1, model2, link2)] of the attachments, in the order made."""
+        return [a.key for a in self._attached.items]
 
     def set_gravity(self, g):
         self.gravity = check_vector(g, 'gravity')

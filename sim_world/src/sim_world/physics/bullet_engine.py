@@ -242,6 +242,75 @@ class BulletEngine(PhysicsEngine):
         self._contacts_valid = False
         self._balance_gravity(extra=rec)
 
+    # ---- the link attacher (sim_world.physics.attachments) -----------------------------------
+    def _link_handle(self, rec, link):
+        """(body id, link index, world pose of its centre-of-mass frame) of the body a link
+        of a moving model moves with."""
+        if rec.art is None:
+            return rec.native['body'], -1, self._body_pose(rec)
+        gi = rec.art.link_group[link][0]
+        return rec.native['body'], rec.art.groups[gi].native, self._group_pose(rec, gi)
+
+    def _fix(self, att, rec1, rec2):
+        """A link of an articulated model (a multibody) and a one-body model: a JOINT_FIXED
+        constraint. Held by a static model: the held body's base gets mass 0 (pybullet's
+        static body) until detached. Two one-body models or two articulated ones: refused
+        (pybullet's fixed constraint between two free rigid bodies ignores the frames'
+        orientations: it would turn the held body)."""
+        c = self._c
+        if rec1.static or rec2.static:
+            rec, link = (rec2, att.link2) if rec1.static else (rec1, att.link1)
+            if rec.art is not None and rec.art.link_group[link][0] != 0:
+                raise ValueError('Bullet: link %r of model %r is not in its root body: only '
+                                 'a root body can be held by a static model' % (link, rec.name))
+            bid = rec.native['body']
+            p.changeDynamics(bid, -1, mass=0.0, physicsClientId=c)
+            p.resetBaseVelocity(bid, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
+            att.native = ('frozen', rec)
+            self._contacts_valid = False
+            return
+        if (rec1.art is None) == (rec2.art is None):
+            raise ValueError('Bullet holds a link of an articulated model and a one-body model '
+                             'together (or either with a static model), not models %r and %r '
+                             '(both %s): use the ode engine for that'
+                             % (rec1.name, rec2.name, 'one body' if rec1.art is None
+                                else 'articulated'))
+        h1, h2 = self._link_handle(rec1, att.link1), self._link_handle(rec2, att.link2)
+        if rec1.art is None:
+            h1, h2 = h2, h1            # pybullet's parent: the multibody's link
+        bid, li, frame = h1
+        cb, cl, cpose = h2
+        # the joint frame is the child's centre-of-mass frame (a parent-side frame with an
+        # orientation was turned the wrong way by pybullet's multibody-rigid fixed constraint)
+        par = frame.inverse() * cpose
+        cid = p.createConstraint(bid, li, cb, cl, p.JOINT_FIXED, [0.0, 0.0, 0.0],
+                                 [float(x) for x in par.p], [0.0, 0.0, 0.0], _xyzw(par.q),
+                                 [0.0, 0.0, 0.0, 1.0], physicsClientId=c)
+        p.changeConstraint(cid, maxForce=1e9, physicsClientId=c)
+        pair = (bid, cb, li, cl)
+        p.setCollisionFilterPair(bid, cb, li, cl, 0, physicsClientId=c)
+        att.native = (cid, pair)
+        self._contacts_valid = False
+
+    def _unfix(self, att):
+        if att.native is None:
+            return
+        c = self._c
+        if att.native[0] == 'frozen':
+            rec = att.native[1]
+            if rec.native is not None:
+                spec = rec.spec if rec.art is None else rec.art.groups[0].spec
+                if not (rec.art is not None and rec.art.welded):
+                    p.changeDynamics(rec.native['body'], -1, mass=float(spec.mass),
+                                     localInertiaDiagonal=[float(x) for x in spec.inertia],
+                                     physicsClientId=c)
+        else:
+            cid, pair = att.native
+            p.removeConstraint(cid, physicsClientId=c)
+            p.setCollisionFilterPair(pair[0], pair[1], pair[2], pair[3], 1, physicsClientId=c)
+        att.native = None
+        self._contacts_valid = False
+
     def _apply_friction(self, rec, js):
         # the default velocity motor of every joint, with the joint's friction as its force:
         # zero friction switches it off

@@ -99,6 +99,7 @@ class OdeEngine(PhysicsEngine):
         self._n_art = 0              # articulated models (joint efforts, damping, unwrapping)
         self._geom_group = {}        # geom of an articulated model -> self-collide flag
         self._hinges = []            # [JointState] of hinges whose angle is unwrapped
+        self._n_attached = 0         # fixed joints of the link attacher (attachments.py)
 
     # ---- articulated models (sim_world.physics.articulation) -------------------------------
     def _add_articulated(self, rec, pose):
@@ -266,6 +267,38 @@ class OdeEngine(PhysicsEngine):
                 raw = js.native.getAngle()
                 js.turns = int(round((positions.get(jn, raw) - raw) / TWO_PI))
                 js.last_raw = raw
+        self._dirty = True
+
+    # ---- the link attacher (sim_world.physics.attachments) -----------------------------------
+    @staticmethod
+    def _link_body(rec, link):
+        """The ODE body a link moves with (None: a static model, i.e. the world)."""
+        if rec.static:
+            return None
+        if rec.art is None:
+            return rec.native['body']
+        return rec.art.groups[rec.art.link_group[link][0]].native
+
+    def _fix(self, att, rec1, rec2):
+        b1, b2 = self._link_body(rec1, att.link1), self._link_body(rec2, att.link2)
+        j = ode.FixedJoint(self._world)
+        if b1 is None or b2 is None:
+            j.attach(b1 or b2, None)
+        else:
+            j.attach(b1, b2)
+        j.setFixed()
+        for b in (b1, b2):
+            if b is not None:
+                b.enable()
+        att.native = j
+        self._n_attached += 1
+        self._dirty = True
+
+    def _unfix(self, att):
+        if att.native is not None:
+            att.native.attach(None, None)
+            att.native = None
+            self._n_attached -= 1
         self._dirty = True
 
     # ---- building ----------------------------------------------------------------------
@@ -443,6 +476,11 @@ class OdeEngine(PhysicsEngine):
                 b1, b2 = g1.getBody(), g2.getBody()
                 if b1 is b2 or ode.areConnected(b1, b2):
                     return
+        if self._n_attached:
+            # bodies held together by the link attacher do not collide
+            b1, b2 = g1.getBody(), g2.getBody()
+            if b1 is not None and b2 is not None and ode.areConnected(b1, b2):
+                return
         if seq.get(g1, 0) > seq.get(g2, 0):
             g1, g2 = g2, g1
         contacts = ode.collide(g1, g2)

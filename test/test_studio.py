@@ -27,17 +27,43 @@ CHROMIUM = os.environ.get('MDS_CHROMIUM', '/usr/bin/chromium')
 
 pytestmark = pytest.mark.rostest
 
-# a client of /gazebo/get_model_state of its own (not the studio's): a model name per line
-# in, its state as a JSON line out
-GET_STATE = """
-import json, sys, rospy
+# a ROS client of its own (not the studio's), one request per line in, one JSON line out:
+# "state MODEL" -> its /gazebo/get_model_state; "touches" -> the TouchEvents of
+# /mobile_device/touch so far; "latest TOPIC FIELD..." -> those fields of the last message of
+# a topic it subscribes to from its start (the device panel is checked against them)
+PROBE = """
+import json, sys, threading, rospy
+import roslib.message, rostopic
 from mobile_device_sim.srv import GetModelState
+from mobile_device_sim.msg import TouchEvent
+rospy.init_node('studio_probe', anonymous=True, disable_signals=True)
 get = rospy.ServiceProxy('/gazebo/get_model_state', GetModelState)
+touches, latest = [], {}
+rospy.Subscriber('/mobile_device/touch', TouchEvent, touches.append)
+TOPICS = %r
+def keep(msg, topic):
+    latest[topic] = msg
+for t, ty in TOPICS:
+    rospy.Subscriber(t, roslib.message.get_message_class(ty), keep, callback_args=t)
+def field(msg, path):
+    for part in path.split('.'):
+        msg = getattr(msg, part)
+    return msg
 for line in sys.stdin:
-    res = get(line.strip(), '')
-    p, q = res.pose.position, res.pose.orientation
-    print(json.dumps([res.success, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]]), flush=True)
-"""
+    words = line.split()
+    if words[0] == 'state':
+        res = get(words[1], '')
+        p, q = res.pose.position, res.pose.orientation
+        print(json.dumps([res.success, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]]), flush=True)
+    elif words[0] == 'touches':
+        print(json.dumps([[e.action, e.x, e.y, e.width, e.height, e.source]
+                          for e in touches]), flush=True)
+    elif words[0] == 'latest':
+        m = latest.get(words[1])
+        print(json.dumps(None if m is None else [field(m, f) for f in words[2:]]), flush=True)
+""" % ([('/mobile_device/magnetic', 'sensor_msgs/MagneticField'),
+        ('/mobile_device/imu_sensor_data', 'sensor_msgs/Imu'),
+        ('/mobile_device/battery_state', 'sensor_msgs/BatteryState')],)
 
 
 def descendants(pid):
@@ -90,17 +116,22 @@ def scene_names(url):
         return [m['name'] for m in json.loads(r.read())['models']]
 
 
-def model_state(studio, model='mobile_device'):
+def probe(studio, request):
+    """The answer of the test's own ROS client (PROBE) to one request."""
     if 'getter' not in studio:
-        studio['getter'] = subprocess.Popen([sys.executable, '-c', GET_STATE],
+        studio['getter'] = subprocess.Popen([sys.executable, '-c', PROBE],
                                             env=studio['env'], stdin=subprocess.PIPE,
                                             stdout=subprocess.PIPE, text=True)
     g = studio['getter']
-    g.stdin.write(model + '\n')
+    g.stdin.write(request + '\n')
     g.stdin.flush()
     line = g.stdout.readline()
-    assert line, 'the get_model_state client died'
-    ok, pos, quat = json.loads(line)
+    assert line, 'the probe died'
+    return json.loads(line)
+
+
+def model_state(studio, model='mobile_device'):
+    ok, pos, quat = probe(studio, 'state ' + model)
     assert ok
     return pos, quat
 
@@ -266,6 +297,66 @@ def test_the_page_draws_the_world_and_the_camera(studio, page):
                            ".textContent !== '-'", timeout=30000)
     assert float(page.get_by_test_id('sim-time').text_content()) > 0
     assert page.outside == [] and page.errors == []
+
+
+def test_a_click_on_the_display_view_touches_the_phone_at_that_pixel(studio, page):
+    with urllib.request.urlopen(studio['url'] + 'api/scene', timeout=30) as r:
+        phone = next(m for m in json.loads(r.read())['models'] if m['name'] == 'mobile_device')
+    width, height = phone['display']['width'], phone['display']['height']
+    before = len(probe(studio, 'touches'))
+    page.evaluate("studio.send({op: 'play'})")
+    box = page.get_by_test_id('display-view').bounding_box()
+    assert abs(box['height'] / box['width'] - height / width) < 0.02   # the display's shape
+    cx, cy = box['x'] + 0.25 * box['width'], box['y'] + 0.75 * box['height']
+    page.mouse.click(cx, cy)
+    deadline = time.monotonic() + 30
+    while True:
+        events = probe(studio, 'touches')[before:]
+        if events or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    assert events and events[0][0] == 0, events           # a DOWN
+    _, x, y, w, h, source = events[0]
+    assert (w, h) == (width, height) and source == 'inject'
+    sent = page.evaluate('studio.lastTouch')
+    assert abs(x - sent['x'] * width) < 0.01 and abs(y - sent['y'] * height) < 0.01
+    px = width / box['width'] + 0.01          # display pixels in one pixel of the page
+    assert abs(x - 0.25 * width) < px and abs(y - 0.75 * height) < px, (x, y)
+    # the event reaches the page too (the device panel), and the view marks it
+    page.wait_for_function("(() => { const t = studio.device['/mobile_device/touch']; "
+                           "return t && t.n >= 1; })()", timeout=30000)
+    shown = page.locator('[data-testid=device-value][data-topic="/mobile_device/touch"]'
+                         '[data-field=x]').text_content()
+    assert abs(float(shown) - x) < 1e-3
+
+
+def test_the_device_panel_shows_the_phones_sensor_values(studio, page):
+    fields = {'/mobile_device/magnetic': ['magnetic_field.x', 'magnetic_field.z'],
+              '/mobile_device/imu_sensor_data': ['linear_acceleration.z', 'angular_velocity.y'],
+              '/mobile_device/battery_state': ['percentage', 'voltage']}
+    page.evaluate("studio.send({op: 'play'})")
+    t0 = time.monotonic()
+    page.wait_for_function('%s.every((t) => studio.device[t])' % json.dumps(
+        list(fields) + ['/mobile_device/fix', '/mobile_device/wifi/scan']), timeout=60000)
+    print('device values after %.1f s' % (time.monotonic() - t0))
+    assert page.evaluate("studio.send({op: 'pause'}).then((r) => r.ok)")
+    time.sleep(1.0)                  # the last messages reach the probe and the studio
+    n = page.evaluate('studio.deviceMessages')
+    page.wait_for_function('studio.deviceMessages > %d + 1' % n, timeout=10000)
+    for topic, names in fields.items():
+        want = probe(studio, 'latest %s %s' % (topic, ' '.join(names)))
+        assert want is not None, 'the probe got nothing on ' + topic
+        for name, v in zip(names, want):
+            cell = page.locator('[data-testid=device-value][data-topic="%s"][data-field="%s"]'
+                                % (topic, name))
+            shown = float(cell.text_content())
+            assert abs(shown - v) <= 1e-6 * abs(v) + 1e-12, (topic, name, shown, v)
+    plot = png_pixels(data_url(page, "document.querySelector('[data-testid=plot]"
+                                     "[data-topic=\"/mobile_device/magnetic\"]')"))
+    assert (np.abs(plot - [0x15, 0x18, 0x1c]).sum(axis=2) > 60).sum() > 50, 'no plot drawn'
+    text = page.get_by_test_id('device-panel').text_content()
+    for topic in ('/mobile_device/fix', '/mobile_device/wifi/scan'):
+        assert topic in text, text[:2000]
 
 
 def test_drag_the_handle_record_and_run(studio, page):

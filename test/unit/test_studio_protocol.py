@@ -34,7 +34,7 @@ class FakeWorld(object):
 
     def touch(self, *a):
         self.calls.append(('touch',) + a)
-        return (512, 300)
+        return a[-1]
 
     def press_button(self, *a):
         self.calls.append(('press_button',) + a)
@@ -111,8 +111,13 @@ def run(coro):
     return asyncio.new_event_loop().run_until_complete(coro)
 
 
+PHONE = {'name': 'mobile_device', 'static': False, 'links': [],
+         'display': {'link': 'mobile_display', 'width': 512, 'height': 300,
+                     'image_topic': None}}
+
+
 def studio():
-    s = Studio(FakeWorld(), rate=40)
+    s = Studio(FakeWorld(), [PHONE], rate=40)
     s.log = lambda text: None
     return s
 
@@ -125,7 +130,8 @@ def test_the_handler_carries_out_commands_through_the_world():
     run(s.handle_text(cmd(op='touch', x=0.5, y=0.25, duration=0.2)))
     run(s.handle_text(cmd(op='step', until=3.0)))
     assert s.world.calls == [('set_pose', 'mobile_device', [1.0, 2.0, 0.5], [0.0, 0.0, 1.5]),
-                             ('touch', 'mobile_device', 0.5, 0.25, 0.2), ('step', 3.0)]
+                             ('touch', 'mobile_device', 0.5, 0.25, 0.2, (512, 300)),
+                             ('step', 3.0)]
 
 
 def test_an_invalid_command_changes_nothing_and_the_next_one_works():
@@ -335,3 +341,10 @@ def test_a_gone_world_is_in_the_stream_with_its_log_tail():
     s.health = lambda: None
     s.check_world()
     assert json.loads(s.poses_message())['world_gone'] is None
+
+
+def test_a_touch_on_a_model_without_a_known_display_is_one_error():
+    s = studio()
+    rep = run(s.handle_text(cmd(op='touch', model='desk', x=0.5, y=0.5)))
+    assert not rep['ok'] and 'no touch display of model desk' in rep['error']
+    assert 'mobile_device' in rep['error'] and s.world.calls == []

@@ -123,9 +123,14 @@ def main(argv=None):
         rospy.init_node('studio', argv=[sys.argv[0]], anonymous=True, disable_signals=True)
         world = WorldLink(rospy, a.camera_topic)
         world.start()
-        studio = Studio(world, _scene_models(rospy), rate=a.rate, camera_rate=a.camera_rate,
+        models = _scene_models(rospy)
+        studio = Studio(world, models, rate=a.rate, camera_rate=a.camera_rate,
                         token=token, run_dir=run_dir,
                         launch=a.world if a.world == 'office' else os.path.abspath(a.world))
+        phones = [m['name'] for m in models if m.get('display')]
+        if phones:
+            from .device import DeviceWatch
+            studio.device = DeviceWatch(rospy, phones)
         studio.health = _health(started, uri)
         app = make_app(studio)
         loop = asyncio.new_event_loop()
@@ -147,6 +152,8 @@ def main(argv=None):
         finally:
             loop.run_until_complete(runner.cleanup())
             world.close()
+            if studio.device is not None:
+                studio.device.close()
             rospy.signal_shutdown('studio stopped')
         return 0
     except KeyboardInterrupt:

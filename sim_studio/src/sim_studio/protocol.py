@@ -38,6 +38,9 @@ OPS = {
     'record': ({'on': 'bool'}, {}, False, 'start (true) or stop (false) recording'),
     'control': ({'take': 'bool'}, {}, False, 'take (true) or let go of (false) control'),
     'scene': ({}, {}, False, 'the models and their poses (as GET /api/scene)'),
+    'device': ({'on': 'bool'}, {}, False,
+               "stream (true) or stop streaming (false) the phones' sensor values to this "
+               'client; replies with the values now'),
     'check': ({'yaml': 'str'}, {}, False, "validate a scenario (run_scenario --check's errors)"),
     'run': ({'yaml': 'str'}, {}, False, 'run a scenario with run_scenario; its verdicts'),
 }

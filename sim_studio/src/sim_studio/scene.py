@@ -2,11 +2,13 @@
 planes; a mesh is drawn as its bounding box in this first version), read with sim_world's
 own loaders (sdf.load_world_file for the world file, urdf.parse_urdf for a spawned model's
 description), and the link poses at the model's rest pose (its joints at zero)."""
+import logging
+
 import numpy as np
 
 from sim_world.transforms import Pose
 
-__all__ = ['describe_model', 'describe_world_file', 'describe_urdf', 'link_poses']
+__all__ = ['describe_model', 'describe_world_file', 'describe_urdf', 'link_poses', 'display_of']
 
 
 def _pose(p):
@@ -62,8 +64,75 @@ def describe_model(model):
             visuals.append({'geometry': _geometry(v.geometry), 'origin': _pose(v.origin),
                             'rgba': rgba})
         links.append({'name': name, 'pose': _pose(pose), 'visuals': visuals})
-    return {'name': model.name, 'static': bool(model.static), 'links': links,
-            'pose': _pose(model.pose)}
+    out = {'name': model.name, 'static': bool(model.static), 'links': links,
+           'pose': _pose(model.pose)}
+    display = display_of(model)
+    if display is not None:
+        out['display'] = display
+    return out
+
+
+class _NoWorld(object):
+    """What the video texture plugin's ``load`` reads of a world when ROS is off: its
+    parameters are read and its texture sized, nothing is subscribed."""
+    ros_enabled = False
+    sim_time = 0.0
+    log = logging.getLogger('sim_studio.scene')
+
+
+def display_of(model):
+    """The touch display of ``model`` as its plugins see it: {'link', 'width', 'height'
+    (px, the coordinates of ``inject_touch`` and of the touch events), 'image_topic' (what
+    the display shows, None without a video texture)}; None for a model without a touch
+    screen. The size is the touch plugin's own rule, from the same parameter rows and
+    code: ``displayWidth``/``displayHeight`` of libgazebo_ros_touch.so, else the size of
+    the video texture (textvid's plugin, loaded here without ROS) on the display link."""
+    from sim_world import plugins
+    from sim_world.plugins.params import parse_params
+    from simsensors.touch import TouchScreen
+    from textvid.video import VideoPlugin
+    spec = next((s for s in model.plugins if plugins.lookup(s.filename) is TouchScreen), None)
+    if spec is None:
+        return None
+    label = 'plugin %s of model %s' % (spec.filename, model.name)
+    p, _errors = parse_params(spec, TouchScreen.param_rows(), label, _NoWorld.log)
+    body = p.bodyName or spec.link or model.root_link
+    if p.bodyName is None and spec.link is None and 'mobile_display' in model.links:
+        body = 'mobile_display'                     # as TouchScreen.setup picks it
+    width, height, topic = p.displayWidth, p.displayHeight, None
+    for vs in model.plugins:
+        if plugins.lookup(vs.filename) is not VideoPlugin:
+            continue
+        video = VideoPlugin(vs, model, _NoWorld())
+        try:
+            video.load()
+        except plugins.PluginError:
+            continue
+        size = video.texture_size(body)
+        if size is not None:
+            topic = video.image_topic
+            width, height = width or size[0], height or size[1]
+            break
+    if width is None or height is None:
+        # no video texture on the link: TouchScreen's default (square pixels, 512 on the
+        # long side) is the texture a video plugin without size parameters would make
+        from sim_world.model import PluginSpec
+        spec0 = PluginSpec('libgazebo_ros_video.so', element=_element(body))
+        video = VideoPlugin(spec0, model, _NoWorld())
+        try:
+            video.load()
+        except plugins.PluginError:
+            return None
+        size = video.texture_size(body)
+        width, height = width or size[0], height or size[1]
+    return {'link': body, 'width': int(width), 'height': int(height), 'image_topic': topic}
+
+
+def _element(body):
+    import xml.etree.ElementTree as ET
+    e = ET.Element('plugin')
+    ET.SubElement(e, 'bodyName').text = body
+    return e
 
 
 def describe_world_file(path):
@@ -74,4 +143,9 @@ def describe_world_file(path):
 
 def describe_urdf(text, name):
     from sim_world.urdf import parse_urdf
-    return describe_model(parse_urdf(text, name=name))
+    model = parse_urdf(text, name=name)
+    if not model.robot_namespace:
+        # spawned as the launch files spawn it: in the namespace of its own name (the
+        # studio calls /<model>/inject_touch)
+        model.robot_namespace = name
+    return describe_model(model)

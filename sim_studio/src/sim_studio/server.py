@@ -49,6 +49,7 @@ class Client(object):
         self.replies = []          # answers are never dropped (one per command)
         self.wake = asyncio.Event()
         self.sent = 0
+        self.device = False        # wants the device panel's values
 
     def put(self, key, payload):
         self.slots[key] = payload
@@ -92,6 +93,9 @@ class Studio(object):
         self.runs = 0
         self.last_jpeg = None
         self.want_camera = False
+        self.device = None           # device.DeviceWatch (None: no device panel)
+        self.device_rate = 4.0       # Hz of the device panel's values
+        self._device_at = [0.0, 0.0]  # when they went out, when topics were looked for
         self.health = None           # () -> None or (why the world is gone, log tail)
         self.world_gone = None
         self._health_at = 0.0
@@ -128,6 +132,8 @@ class Studio(object):
         try:
             if cmd.op == 'scene':
                 return protocol.reply(cmd, scene=self.scene())
+            if cmd.op == 'device':
+                return protocol.reply(cmd, **(await self._device_op(cmd['on'], client)))
             if cmd.op == 'check':
                 return protocol.reply(cmd, problems=check_yaml(cmd['yaml']))
             if cmd.op == 'record':
@@ -143,6 +149,22 @@ class Studio(object):
             self.log('studio: %s failed: %s' % (cmd.op, e))
             return protocol.error(str(e), cmd)
         return protocol.reply(cmd, **(extra or {}))
+
+    async def _device_op(self, on, client):
+        if self.device is None:
+            raise ValueError('device: this studio watches no phone (no model with a touch '
+                             'display in the descriptions it read)')
+        if client is not None:
+            client.device = on
+        if on:
+            loop = asyncio.get_event_loop()
+            await loop.run_in_executor(None, self.device.refresh)
+            self._device_at[1] = time.monotonic()
+        return {'device': on, 'topics': self.device.values()}
+
+    def device_message(self):
+        return json.dumps({'v': protocol.VERSION, 'type': 'device', 't': self.world.clock,
+                           'topics': self.device.values()}, separators=(',', ':'))
 
     def _control(self, cmd, client, local):
         """None when ``client`` may send ``cmd``, else why not."""
@@ -191,7 +213,8 @@ class Studio(object):
         if cmd.op == 'set_pose':
             w.set_pose(f['model'], f['position'], f['rpy'])
         elif cmd.op == 'touch':
-            display = w.touch(f['model'], f['x'], f['y'], f['duration'])
+            display = w.touch(f['model'], f['x'], f['y'], f['duration'],
+                              self.display_size(f['model']))
         elif cmd.op == 'press_button':
             w.press_button(f['model'], f['button'], f['duration'])
         elif cmd.op == 'set_environment':
@@ -210,6 +233,16 @@ class Studio(object):
         if entry is not None:
             self._tell_recording_threadsafe()
         return {'sim_time': t, 'recorded': entry}
+
+    def display_size(self, model):
+        """(width, height) px of ``model``'s touch display, from its description."""
+        d = next((m.get('display') for m in self.scene_models if m['name'] == model), None)
+        if not d:
+            raise ValueError('touch: the studio knows no touch display of model %s (it reads '
+                             'displays from the descriptions of the models it knows: %s)'
+                             % (model, ', '.join(m['name'] for m in self.scene_models
+                                                 if m.get('display')) or 'none'))
+        return d['width'], d['height']
 
     def _tell_recording_threadsafe(self):
         loop = getattr(self, 'loop', None)
@@ -290,6 +323,22 @@ class Studio(object):
                 if jpeg:
                     for c in self.clients:
                         c.put('camera', jpeg)
+            await self._stream_device(loop, now)
+
+    async def _stream_device(self, loop, now):
+        """The device panel's values to the clients that asked, at ``device_rate`` Hz;
+        topics that appeared since are looked for every 2 s."""
+        watchers = [c for c in self.clients if c.device]
+        if self.device is None or not watchers or now - self._device_at[0] < \
+                1.0 / self.device_rate:
+            return
+        self._device_at[0] = now
+        if now - self._device_at[1] > 2.0:
+            self._device_at[1] = now
+            await loop.run_in_executor(None, self.device.refresh)
+        msg = self.device_message()
+        for c in watchers:
+            c.put('device', msg)
 
     # -- running a scenario -----------------------------------------------------------------
     async def run_yaml(self, text):
@@ -360,7 +409,9 @@ def make_app(studio):
                                    'ops': sorted(protocol.OPS),
                                    'holder': studio.holder.name if studio.holder else None,
                                    'recording': studio.recorder.on,
-                                   'yaml': studio.recorder.yaml()}))
+                                   'yaml': studio.recorder.yaml(),
+                                   'camera_topic': getattr(studio.world, 'camera_topic',
+                                                           None)}))
         studio.want_camera = True
         pump = asyncio.ensure_future(c.pump())
         try:

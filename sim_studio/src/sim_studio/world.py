@@ -4,7 +4,6 @@ instance's actions call (/gazebo/set_model_state, <ns>/inject_touch, <ns>/press_
 reset), and the latest of what the world publishes (/gazebo/model_states, /clock, the
 phone camera's image). The subscribers only keep the latest message: nothing here can hold
 the world back."""
-import re
 import threading
 import time
 
@@ -31,7 +30,6 @@ class WorldLink(object):
         self.clock = 0.0              # the latest /clock (s)
         self._rtf = []                # [(wall, sim)] samples of the last seconds
         self._proxies = {}
-        self._display = {}            # model -> (width, height) px
         self._lock = threading.Lock()
         self.subs = []
 
@@ -134,27 +132,11 @@ class WorldLink(object):
         p, q = res.pose.position, res.pose.orientation
         return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
 
-    def display_size(self, model):
-        """(width, height) px of ``model``'s touch display: asked once from its inject_touch
-        service (a touch outside the display is refused with its size; nothing happens)."""
-        if model not in self._display:
-            from mobile_device_sim.srv import InjectTouch
-            try:
-                res = self._proxy('/%s/inject_touch' % model, InjectTouch)(
-                    -1.0, -1.0, 0.1, 0.5, -1.0, -1.0)
-                text = res.status_message
-            except Exception as e:  # noqa: BLE001
-                raise WorldError('service /%s/inject_touch failed: %s' % (model, e))
-            m = re.search(r'0\.\.(\d+), 0\.\.(\d+) px', text or '')
-            if res.success or not m:
-                raise WorldError('/%s/inject_touch did not tell its display size (%r)'
-                                 % (model, text))
-            self._display[model] = (int(m.group(1)), int(m.group(2)))
-        return self._display[model]
-
-    def touch(self, model, x, y, duration):
+    def touch(self, model, x, y, duration, size):
+        """A touch at (x, y) in 0..1 of the display of ``size`` (width, height) px, which
+        the studio knows from the model's description (scene.display_of)."""
         from mobile_device_sim.srv import InjectTouch
-        w, h = self.display_size(model)
+        w, h = size
         self._call('/%s/inject_touch' % model, InjectTouch, min(x * w, w - 1e-6),
                    min(y * h, h - 1e-6), duration, 0.5, -1.0, -1.0)
         return w, h

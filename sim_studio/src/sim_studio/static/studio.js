@@ -7,7 +7,8 @@
     (token ? '?token=' + encodeURIComponent(token) : '');
   const studio = window.studio = {
     frames: 0, firstFrameAt: null, poses: {}, models: {}, selected: 'mobile_device',
-    dragging: false, replies: {}, cameraFrames: 0, ready: false,
+    dragging: false, replies: {}, cameraFrames: 0, ready: false, displays: {},
+    device: {}, hist: {}, deviceMessages: 0,
   };
   let ws = null, nextId = 1;
   const pending = {};
@@ -70,6 +71,7 @@
 
   function build(sceneDesc) {
     for (const m of sceneDesc.models) {
+      if (m.display && !studio.displays[m.name]) studio.displays[m.name] = m.display;
       if (studio.models[m.name]) continue;
       const root = new THREE.Group();
       root.name = m.name;
@@ -101,6 +103,111 @@
     }
     $('model').value = studio.selected;
     select(studio.selected);
+    drawDisplay();
+  }
+
+  // -- the phone's display: what it shows, and a click on it is a touch -------------------
+  function phone() {
+    if (studio.displays[studio.selected]) return studio.selected;
+    return Object.keys(studio.displays)[0];
+  }
+  function drawDisplay() {
+    const name = phone(), d = studio.displays[name], c = $('display');
+    if (!d) return;
+    const w = 150, h = Math.round(w * d.height / d.width);
+    if (c.width !== w || c.height !== h) { c.width = w; c.height = h; }
+    const g = c.getContext('2d');
+    const img = $('camera');
+    g.fillStyle = '#0000ff';                // textvid's display before its first image
+    g.fillRect(0, 0, w, h);
+    if (d.image_topic && d.image_topic === studio.cameraTopic && img.naturalWidth) {
+      g.drawImage(img, 0, 0, w, h);         // it shows the camera topic's image, scaled
+    }
+    const t = studio.device['/' + name + '/touch'];
+    if (t && studio.simTime - t.stamp < 1.0) {     // the last touch event, for a second
+      const f = Object.fromEntries(t.fields);
+      g.strokeStyle = f.action === 1 ? '#ff0' : '#f00';
+      g.lineWidth = 2;
+      g.beginPath();
+      g.arc(f.x / d.width * w, f.y / d.height * h, 6, 0, 2 * Math.PI);
+      g.stroke();
+    }
+  }
+  $('display').addEventListener('click', (e) => {
+    const name = phone(), r = $('display').getBoundingClientRect();
+    if (!name) return;
+    const x = Math.min(1, Math.max(0, (e.clientX - r.left) / r.width));
+    const y = Math.min(1, Math.max(0, (e.clientY - r.top) / r.height));
+    studio.lastTouch = {model: name, x: x, y: y};
+    send({op: 'touch', model: name, x: x, y: y}).then(showError);
+  });
+
+  // -- the device panel: each topic's latest values and a plot over sim time ------------------
+  const COLORS = ['#f66', '#6d6', '#69f', '#fc4'];
+  function fmt(v) {
+    if (typeof v !== 'number') return String(v);
+    if (v !== 0 && (Math.abs(v) >= 1e7 || Math.abs(v) < 1e-4)) return v.toExponential(6);
+    return String(parseFloat(v.toPrecision(7)));
+  }
+  function showDevice(m) {
+    studio.deviceMessages++;
+    studio.device = m.topics;
+    const panel = $('device');
+    for (const topic of Object.keys(m.topics).sort()) {
+      const v = m.topics[topic];
+      let box = panel.querySelector('.topic[data-topic="' + topic + '"]');
+      if (!box) {
+        box = document.createElement('div');
+        box.className = 'topic';
+        box.dataset.topic = topic;
+        box.innerHTML = '<div class="title"></div><canvas data-testid="plot" width="320" ' +
+          'height="48"></canvas><table></table>';
+        box.querySelector('.title').textContent = topic + '  (' + v.type + ')';
+        box.querySelector('canvas').dataset.topic = topic;
+        panel.appendChild(box);
+      }
+      const table = box.querySelector('table');
+      for (const [path, val] of v.fields) {
+        let row = table.querySelector('tr[data-field="' + path + '"]');
+        if (!row) {
+          row = document.createElement('tr');
+          row.dataset.field = path;
+          row.innerHTML = '<td></td><td class="v" data-testid="device-value"></td>';
+          row.firstChild.textContent = path;
+          row.lastChild.dataset.topic = topic;
+          row.lastChild.dataset.field = path;
+          table.appendChild(row);
+        }
+        row.lastChild.textContent = fmt(val);
+      }
+      const t = v.stamp !== null && v.stamp !== undefined ? v.stamp : m.t;
+      const nums = v.fields.filter((f) => typeof f[1] === 'number').slice(0, 4);
+      let h = studio.hist[topic];
+      if (!h || (h.length && t < h[h.length - 1].t)) h = studio.hist[topic] = [];
+      if (!h.length || t > h[h.length - 1].t) h.push({t: t, v: nums.map((f) => f[1])});
+      while (h.length && h[0].t < t - 30) h.shift();
+      plot(box.querySelector('canvas'), h, nums.map((f) => f[0]));
+    }
+  }
+  function plot(c, h, names) {
+    const g = c.getContext('2d'), w = c.width, ht = c.height;
+    g.fillStyle = '#15181c';
+    g.fillRect(0, 0, w, ht);
+    if (h.length < 2) return;
+    const t0 = h[0].t, t1 = Math.max(h[h.length - 1].t, t0 + 1e-9);
+    names.forEach((_n, k) => {
+      let lo = Infinity, hi = -Infinity;
+      for (const p of h) { if (p.v[k] < lo) lo = p.v[k]; if (p.v[k] > hi) hi = p.v[k]; }
+      const span = hi - lo || 1;
+      g.strokeStyle = COLORS[k];
+      g.beginPath();
+      h.forEach((p, i) => {
+        const x = (p.t - t0) / (t1 - t0) * (w - 2) + 1;
+        const y = ht - 3 - (p.v[k] - lo) / span * (ht - 6);
+        if (i) g.lineTo(x, y); else g.moveTo(x, y);
+      });
+      g.stroke();
+    });
   }
 
   function select(name) {
@@ -183,7 +290,7 @@
       studio.frames++;
       if (studio.firstFrameAt === null) studio.firstFrameAt = performance.now();
     }
-    if (studio.frames % 10 === 1) fillForm(studio.selected);
+    if (studio.frames % 10 === 1) { fillForm(studio.selected); drawDisplay(); }
     requestAnimationFrame(frame);
   }
 
@@ -204,6 +311,7 @@
         if (cameraUrl) URL.revokeObjectURL(cameraUrl);
         cameraUrl = url;
         studio.cameraFrames++;
+        $('camera').onload = drawDisplay;
         return;
       }
       const m = JSON.parse(ev.data);
@@ -228,7 +336,9 @@
         }
       } else if (m.type === 'hello') {
         studio.name = m.name;
+        studio.cameraTopic = m.camera_topic;
         showRecording(m.recording, m.yaml);
+        send({op: 'device', on: true});
         send({op: 'scene'}).then((rep) => {
           const s = rep.scene;
           if (studio.ready) { build(s); return; }      // a reconnect
@@ -242,6 +352,8 @@
           build(s);
           studio.ready = true;
         });
+      } else if (m.type === 'device') {
+        showDevice(m);
       } else if (m.type === 'recording') {
         showRecording(m.on, m.yaml);
       } else if (m.type === 'control') {

@@ -22,7 +22,7 @@ the manager logs it as one line and the running controllers keep running.
 import logging
 import math
 
-__all__ = ['ControllerError', 'Pid', 'ControllerManager', 'CONTROLLER_TYPES']
+__all__ = ['ControllerError', 'Pid', 'ControllerManager', 'CONTROLLER_TYPES', 'controller_types']
 
 
 class ControllerError(Exception):
@@ -85,6 +85,9 @@ def _angle_diff(a, b):
 class Controller(object):
     TYPE = ''
     INTERFACE = None          # the joint interface it claims (None: reads only)
+    GROUP = False             # its command is a Float64MultiArray (one value per joint)
+    #: controller_manager's state: 'initialized' (loaded), 'running', 'stopped'
+    state = 'initialized'
 
     def __init__(self, name, params, hw):
         self.name = name
@@ -122,8 +125,11 @@ class Controller(object):
     def update(self, t, dt):
         pass
 
+    def stopping(self):
+        pass
+
     def claimed(self):
-        return set(self.joints) if self.INTERFACE is not None else set()
+        return list(self.joints) if self.INTERFACE is not None else []
 
 
 class JointStateController(Controller):
@@ -253,12 +259,106 @@ class EffortVelocityController(_CommandController):
         self.hw.command(self.joint, 'effort', self.pid.compute(err, de, dt))
 
 
+class _GroupController(Controller):
+    """A controller of several joints (``joints``) with one Float64MultiArray command."""
+    GROUP = True
+
+    def __init__(self, name, params, hw):
+        self.name, self.hw, self.running = name, hw, False
+        joints = params.get('joints')
+        if not isinstance(joints, (list, tuple)) or not joints or \
+                not all(isinstance(j, str) and j for j in joints):
+            raise ControllerError('%s/joints is missing (a list of joint names)' % name)
+        for j in joints:
+            self.check_joint(j, '%s/joints' % name)
+        self.joints = list(joints)
+        self.load(params)
+
+    def set_command(self, values):
+        vals = [float(v) for v in values]
+        if len(vals) != len(self.joints):
+            raise ControllerError('%s/command: dimension of command (%d) does not match '
+                                  'number of joints (%d); not executing' % (
+                                      self.name, len(vals), len(self.joints)))
+        if not all(math.isfinite(v) for v in vals):
+            raise ControllerError('%s/command must be finite, got %r' % (self.name, vals))
+        self.commands = vals
+
+    def starting(self, t):
+        self.commands = [0.0] * len(self.joints)
+
+    def update(self, t, dt):
+        for j, v in zip(self.joints, self.commands):
+            self.hw.command(j, self.INTERFACE, v)
+
+
+class GroupPositionController(_GroupController):
+    TYPE = 'position_controllers/JointGroupPositionController'
+    INTERFACE = 'position'
+
+    def starting(self, t):
+        self.commands = [self.hw.state(j)[0] for j in self.joints]
+
+
+class GroupVelocityController(_GroupController):
+    TYPE = 'velocity_controllers/JointGroupVelocityController'
+    INTERFACE = 'velocity'
+
+
+class GroupEffortController(_GroupController):
+    TYPE = 'effort_controllers/JointGroupEffortController'
+    INTERFACE = 'effort'
+
+
+class GroupEffortPositionController(_GroupController):
+    """effort_controllers/JointGroupPositionController: a PID per joint (``<joint>/pid``)."""
+    TYPE = 'effort_controllers/JointGroupPositionController'
+    INTERFACE = 'effort'
+
+    def load(self, params):
+        self.pids = []
+        for j in self.joints:
+            jp = params.get(j)
+            self.pids.append(Pid.from_params(jp.get('pid') if isinstance(jp, dict) else None,
+                                             '%s/%s/pid' % (self.name, j)))
+
+    def starting(self, t):
+        self.commands = [self.hw.state(j)[0] for j in self.joints]
+        for p in self.pids:
+            p.reset()
+
+    def update(self, t, dt):
+        for j, sp, pid in zip(self.joints, self.commands, self.pids):
+            q, v, _ = self.hw.state(j)
+            lo, hi, _ = self.hw.limits(j)
+            if self.hw.joint_type(j) == 'continuous':
+                err = _angle_diff(sp, q)
+            else:
+                if lo is not None and hi is not None:
+                    sp = min(hi, max(lo, sp))
+                err = sp - q
+            self.hw.command(j, 'effort', pid.compute(err, -v, dt))
+
+
 _IFACE_NAMES = {'position': 'PositionJointInterface', 'velocity': 'VelocityJointInterface',
                 'effort': 'EffortJointInterface'}
 
 CONTROLLER_TYPES = dict((c.TYPE, c) for c in (
     JointStateController, ForwardPositionController, ForwardVelocityController,
-    ForwardEffortController, EffortPositionController, EffortVelocityController))
+    ForwardEffortController, EffortPositionController, EffortVelocityController,
+    GroupPositionController, GroupVelocityController, GroupEffortController,
+    GroupEffortPositionController))
+
+
+def controller_types():
+    """{type name: class} of every controller type, the trajectory controllers included
+    (sim_world.control.trajectory builds on this module, so it is imported here late)."""
+    if 'position_controllers/JointTrajectoryController' not in CONTROLLER_TYPES:
+        from .trajectory import (EffortJointTrajectoryController,
+                                 PositionJointTrajectoryController)
+        for c in (PositionJointTrajectoryController, EffortJointTrajectoryController):
+            CONTROLLER_TYPES[c.TYPE] = c
+    return CONTROLLER_TYPES
 
 #: the base class each type reports in list_controller_types
 BASE_CLASS = 'controller_interface::ControllerBase'
@@ -286,10 +386,11 @@ class ControllerManager(object):
             ctype = params.get('type')
             if ctype is None:
                 raise ControllerError('%s/type is missing' % name)
-            cls = CONTROLLER_TYPES.get(ctype)
+            types = controller_types()
+            cls = types.get(ctype) if isinstance(ctype, str) else None
             if cls is None:
                 raise ControllerError('%s/type %r is not a known controller type (known: %s)'
-                                      % (name, ctype, ', '.join(sorted(CONTROLLER_TYPES))))
+                                      % (name, ctype, ', '.join(sorted(types))))
             self.controllers[name] = cls(name, params, self.hw)
         except ControllerError as e:
             self.log.error('controller_manager: %s', e)
@@ -328,14 +429,19 @@ class ControllerManager(object):
                         break
                     claimed[j] = n
         for n in stop:
-            self.controllers[n].running = False
-            for j in self.controllers[n].claimed():
+            c = self.controllers[n]
+            if c.running:
+                c.stopping()
+                c.state = 'stopped'
+            c.running = False
+            for j in c.claimed():
                 self.hw.release(j)
         for n in start:
             c = self.controllers[n]
             if not c.running:
-                c.starting(t)
                 c.running = True
+                c.starting(t)
+                c.state = 'running'
         return True, 'started %s, stopped %s' % (start, stop)
 
     def spawn(self, name, params, t=0.0):
@@ -359,6 +465,11 @@ class ControllerManager(object):
         """[(name, type, 'running'/'stopped', [joints])]"""
         return [(n, c.TYPE, 'running' if c.running else 'stopped', list(c.claimed()))
                 for n, c in sorted(self.controllers.items())]
+
+    def stop_all(self, t=0.0):
+        """Stop every running controller (the plugin's end)."""
+        self.switch_controller(stop=[n for n, c in self.controllers.items() if c.running],
+                               t=t, strict=False)
 
     def update(self, t, dt):
         for n, c in list(self.controllers.items()):

@@ -5,8 +5,12 @@ ignored, as DefaultRobotHWSim does), read and commanded through the world's phys
 
 - effort: the command clamped to the joint's ``<limit effort>`` (when > 0), applied for the
   next step (the physics then truncates it as Gazebo's CheckAndTruncateForce);
-- position: kinematic (the joint set to the command, its velocity zero; the other joints keep
-  their velocities), as DefaultRobotHWSim without PID gains;
+- position: kinematic, as DefaultRobotHWSim without PID gains: the joint is set to the
+  command every write and held there through the step by its velocity-0 motor (its friction
+  raised to ``KINEMATIC_HOLD`` while the interface is claimed, put back on release), so
+  gravity does not make it sag or swing between commands; the other joints keep their
+  velocities. Its velocity reads the commanded motion (the change of command over the time
+  between writes), zero when held;
 - velocity: the joint's velocity set to the command every step.
 
 Not a plugin module: the world seam has no joint commands, so this adapter (like joint_api)
@@ -19,6 +23,7 @@ __all__ = ['Transmission', 'parse_transmissions', 'RobotHWSim', 'TransmissionErr
 KINDS = {'PositionJointInterface': 'position', 'VelocityJointInterface': 'velocity',
          'EffortJointInterface': 'effort'}
 KEY = 'gazebo_ros_control'
+KINEMATIC_HOLD = 1e4      # N m or N: the motor that holds a position-commanded joint
 MOVABLE = ('revolute', 'continuous', 'prismatic')
 
 
@@ -87,6 +92,8 @@ class RobotHWSim(object):
             self.interfaces.setdefault(tr.joint, set()).update(tr.interfaces)
         self.efforts = {}         # joint -> last effort sent (after the clamp)
         self._pending = {}        # joint -> (kind, value) of this step
+        self._held = {}           # joint -> its own friction, while commanded kinematically
+        self._kin = {}            # joint -> (sim time, position commanded, velocity read)
 
     def all_joints(self):
         return [j for j in self.physics.joint_names(self.model)
@@ -104,6 +111,9 @@ class RobotHWSim(object):
 
     def state(self, joint):
         q, v = self.physics.joint_state(self.model, joint)
+        k = self._kin.get(joint)
+        if k is not None:
+            v = k[2]
         return q, v, self.efforts.get(joint, 0.0)
 
     def command(self, joint, kind, value):
@@ -112,6 +122,9 @@ class RobotHWSim(object):
     def release(self, joint):
         self._pending.pop(joint, None)
         self.efforts.pop(joint, None)
+        self._kin.pop(joint, None)
+        if joint in self._held and self.physics.has_model(self.model):
+            self.physics.set_joint_dynamics(self.model, joint, friction=self._held.pop(joint))
         self.physics.clear_joint_efforts(self.model, joint, key=KEY)
 
     def write(self):
@@ -129,6 +142,19 @@ class RobotHWSim(object):
                 positions[joint] = v
             elif kind == 'velocity':
                 ph.set_joint_velocity(m, joint, v)
+        if positions:
+            now = self.world.sim_time
+            for j, q in positions.items():
+                if j not in self._held:
+                    self._held[j] = self.physics.joint(m, j).friction
+                    ph.set_joint_dynamics(m, j, friction=KINEMATIC_HOLD)
+                k = self._kin.get(j)
+                v = (q - k[1]) / (now - k[0]) if k is not None and now > k[0] else 0.0
+                self._kin[j] = (now, q, v)
+            # a held joint stays where its motor holds it: teleport only what moves (the
+            # kinematic move costs a forward kinematics pass of the model)
+            positions = dict((j, q) for j, q in positions.items()
+                             if abs(ph.joint_state(m, j)[0] - q) > 1e-12)
         if positions:
             keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
                         if j not in positions)

@@ -1,6 +1,9 @@
 """libgazebo_ros_control.so (issue 48 part 4): gazebo_ros_control's plugin. It reads the
 model's ``<transmission>`` elements (sim_world.control.robot_hw), holds a controller manager
-(sim_world.control.controllers) and updates it every physics step in sim time.
+(sim_world.control.controllers, the trajectory controllers in sim_world.control.trajectory)
+and updates it every physics step (or every ``controlPeriod``) in sim time, inside the
+world's step. With ROS, the manager's services and each controller's topics, services and
+action are served in the plugin's robot namespace (sim_world.control.ros_api).
 
 Parameters: ``robotNamespace``, ``controlPeriod`` (s; 0 or absent: every physics step),
 ``robotSimType`` (only ``gazebo_ros_control/DefaultRobotHWSim``). A model without a
@@ -44,6 +47,14 @@ class GazeboRosControl(Plugin):
         self.manager = ControllerManager(self.hw, log=self.world.log)
         self.update_rate = 1.0 / p.controlPeriod if p.controlPeriod > 0 else 0.0
         self.last_time = None
+        self.ros = None
+        if self.world.ros_enabled:
+            from .ros_api import ControllerManagerRos
+            self.ros = ControllerManagerRos(self)
+
+    def ros_names(self):
+        from .ros_api import SERVICES
+        return set(self.resolve('controller_manager/' + s) for s in SERVICES)
 
     def update(self, sim_time):
         dt = self.world.step_size if self.last_time is None else sim_time - self.last_time
@@ -61,7 +72,7 @@ class GazeboRosControl(Plugin):
                 c.starting(self.world.sim_time)
 
     def shutdown(self):
-        for c in list(self.manager.controllers.values()):
-            c.running = False
-            for j in c.claimed():
-                self.hw.release(j)
+        self.manager.stop_all(self.world.sim_time)
+        if self.ros is not None:
+            self.ros.shutdown()
+            self.ros = None

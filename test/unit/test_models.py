@@ -135,7 +135,8 @@ def test_office_world():
     names = [m.name for m in w.models]
     for n in ('ground_plane', 'desk', 'chair', 'paper'):
         assert n in names
-    assert all(m.static for m in w.models)
+    # everything is static but the east door on its hinge (issue 48)
+    assert [m.name for m in w.models if not m.static] == ['east_door']
     paper = [m for m in w.models if m.name == 'paper'][0]
     tex = paper.links['sheet'].visuals[0].material.texture
     assert os.path.isabs(tex) and os.path.isfile(tex), tex

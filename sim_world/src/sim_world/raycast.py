@@ -6,6 +6,8 @@ ray (``Hit``: distance, model, link, point, normal, material) or None;
 the parts of the segment a->b (distances from a, sorted by enter) that lie inside solid
 collision shapes. Both are also ``World.raycast`` / ``World.segment_intervals``.
 
+An articulated model's shapes move with their links (each link group's body).
+
 Shapes: boxes, spheres and cylinders analytically; planes as the solid half-space below the
 plane (behind its normal: the ground is solid); meshes by Moeller-Trumbore over all their
 triangles at once (a closed mesh's inside is between consecutive crossings along the line).
@@ -103,7 +105,14 @@ class RayCaster(object):
         for name, rec in recs.items():
             model = self.world.models.get(name)
             mats = self._materials(model) if model is not None else {}
-            for s in rec.spec.shapes:
+            # an articulated model: the shapes of every link group (body), each placed by
+            # its group's frame (group index gi; None: the model's root frame)
+            if getattr(rec, 'art', None) is not None:
+                shapes = [(gi, s) for gi, grp in enumerate(rec.art.groups)
+                          for s in grp.spec.shapes]
+            else:
+                shapes = [(None, s) for s in rec.spec.shapes]
+            for gi, s in shapes:
                 g = s.geometry
                 k = g.kind
                 if k not in lists:
@@ -121,9 +130,9 @@ class RayCaster(object):
                     par = n / np.linalg.norm(n)
                 else:
                     par = None
-                lists[k].append((oi, s, par))
+                lists[k].append((oi, s, par, gi))
                 self.owner_thickness.append(_thickness(k, par, s))
-                self.model_shapes.setdefault(name, []).append((k, len(lists[k]) - 1))
+                self.model_shapes.setdefault(name, []).append((k, len(lists[k]) - 1, gi))
         self.kinds = {}
         for k in ('box', 'sphere', 'cylinder', 'plane'):
             kd = _Kind()
@@ -133,17 +142,18 @@ class RayCaster(object):
             kd.owner = np.array([e[0] for e in lists[k]], int)
             kd.params = np.array([e[2] for e in lists[k]], float).reshape(n, 3)
             kd.local = [e[1].pose for e in lists[k]]
+            kd.group = [e[3] for e in lists[k]]
             self.kinds[k] = kd
         # meshes: one triangle soup; tri_shape = index of the mesh in self.meshes
         self.meshes = []
         v0, tri_shape = [], []
         start = 0
-        for i, (oi, s, _) in enumerate(lists['mesh']):
+        for i, (oi, s, _, gi) in enumerate(lists['mesh']):
             verts, faces = s.mesh
             verts = np.asarray(verts, float)
             faces = np.asarray(faces, int)
             tris = verts[faces]                      # (m,3,3) local
-            self.meshes.append(dict(owner=oi, local=s.pose, tris=tris,
+            self.meshes.append(dict(owner=oi, local=s.pose, tris=tris, group=gi,
                                     sl=slice(start, start + len(tris))))
             start += len(tris)
             tri_shape.append(np.full(len(tris), i, int))
@@ -161,17 +171,19 @@ class RayCaster(object):
         self._poses = {}
         self._ignore_cache = {}
 
-    def _place(self, name, root):
-        for k, i in self.model_shapes.get(name, ()):
+    def _place(self, name, root, frames=None):
+        """Shapes of model ``name`` at its root pose (``frames``: the group frames of an
+        articulated model)."""
+        for k, i, gi in self.model_shapes.get(name, ()):
             if k == 'mesh':
                 continue
             kd = self.kinds[k]
-            w = root * kd.local[i]
+            w = (root if gi is None else frames[gi]) * kd.local[i]
             kd.R[i] = quat_to_matrix(w.q)
             kd.t[i] = w.p
         for i in self.mesh_index.get(name, ()):
             m = self.meshes[i]
-            w = root * m['local']
+            w = (root if m['group'] is None else frames[m['group']]) * m['local']
             R = quat_to_matrix(w.q)
             tw = m['tris'].dot(R.T) + w.p
             sl = m['sl']
@@ -202,6 +214,14 @@ class RayCaster(object):
                     continue
                 self._poses[name] = pose
                 self._place(name, pose)
+            elif getattr(rec, 'art', None) is not None:
+                frames = [phys.link_pose(name, g.name) for g in rec.art.groups]
+                key = np.concatenate([np.concatenate([f.p, f.q]) for f in frames])
+                old = self._poses.get(name)
+                if old is not None and np.array_equal(old, key):
+                    continue
+                self._poses[name] = key
+                self._place(name, None, frames)
             else:
                 pose = phys.model_pose(name)
                 old = self._poses.get(name)

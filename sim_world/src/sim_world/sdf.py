@@ -25,7 +25,9 @@ Supported (SDF 1.4-1.7 element names)::
                     <lighting>false</lighting></material></visual>
         <sensor type="camera" ...><plugin filename="..."/></sensor>
       </link>
-      <joint name type="fixed"><parent/><child/><pose/></joint>
+      <joint name type="fixed|revolute|continuous|prismatic"><parent/><child/><pose/>
+        <axis><xyz/><limit/><dynamics/><initial_position/></axis></joint>
+        (<parent>world</parent>: the model is welded where it is put)
       <plugin name filename>...</plugin>
     </model>
   </world></sdf>
@@ -198,6 +200,15 @@ def parse_sdf_model(mel, base_dir=None, what=None):
         link_frames[link.name] = lpose
     if not model.links:
         raise ModelError('%s has no <link>' % what)
+    if 'world' not in model.links and any(_child_text(j, 'parent') == 'world'
+                                          for j in mel.findall('joint')):
+        # a joint to the world (<parent>world</parent>) welds the model where it is put:
+        # an empty root link named world, as a URDF's (sim_world.physics.articulation)
+        links = list(model.links.items())
+        model.links.clear()
+        model.links['world'] = Link('world', None, [], [])
+        model.links.update(links)
+        link_frames['world'] = Pose()
     # SDF link poses are relative to the model frame; make the first link the root and
     # express the others through fixed joints from it.
     root_name = next(iter(model.links))
@@ -256,12 +267,17 @@ def _joint(jel, jname, parent, child, origin, what):
                     kw[tag] = v
             kw['effort'] = _joint_number(lel, 'effort', jwhat + ' <limit>', -1.0)
             kw['velocity'] = _joint_number(lel, 'velocity', jwhat + ' <limit>', -1.0)
+        if _child_text(ael, 'initial_position') is not None:    # SDF 1.5-1.7
+            kw['initial'] = _joint_number(ael, 'initial_position', jwhat + ' <axis>', 0.0)
         dyn = ael.find('dynamics')
         if dyn is not None:
             kw['damping'] = _joint_number(dyn, 'damping', jwhat + ' <dynamics>', 0.0)
             kw['friction'] = _joint_number(dyn, 'friction', jwhat + ' <dynamics>', 0.0)
+    initial = kw.pop('initial', None)
     joint = Joint(jname, jtype, parent, child, origin, axis, **kw)
     joint.frame = _pose(jel, jwhat)
+    if initial is not None:
+        joint.initial = initial
     return joint
 
 

@@ -71,9 +71,10 @@ class Hands(object):
         return '/' + ev.get('ns', self.sc.phones[0]['ns']).strip('/')
 
     def call(self, ev, name, kind, *args):
-        """Call the world's service ``name`` (its type: the world's ``srv_types[kind]``);
-        an error of the run naming the action when it fails or answers success false."""
-        typ = self.world.srv_types[kind]
+        """Call the world's service ``name`` (its type: the world's ``srv_types[kind]``, or
+        ``kind`` itself when it is a service class); an error of the run naming the action
+        when it fails or answers success false (ok false: the link attacher)."""
+        typ = kind if isinstance(kind, type) else self.world.srv_types[kind]
         try:
             res = self.world.proxy(name, typ)(*args)
         except Exception as e:  # noqa: BLE001 - service missing or the world died
@@ -82,6 +83,9 @@ class Hands(object):
                            self.world.log_tail())
         if hasattr(res, 'success') and not res.success:
             raise RunError('%s (%s): %s' % (ev['id'], ev['action'], res.status_message))
+        if hasattr(res, 'ok') and not res.ok:
+            raise RunError('%s (%s): %s refused it (the world\'s log says why)'
+                           % (ev['id'], ev['action'], name), self.world.log_tail())
         return res
 
     def model_state(self, ev, model):
@@ -375,6 +379,137 @@ class Publish(Action):
         h.publish(ev['topic'], m)
 
 
+class SetJoints(Action):
+    """Joints at positions, at rest (Gazebo's set_model_configuration); with a duration, a
+    linear move from where they are, one configuration every interval."""
+    name = 'set_joints'
+
+    def apply(self, h, t0):
+        from mobile_device_sim.srv import GetJointProperties, SetModelConfiguration
+        ev = self.ev
+        names = sorted(ev['positions'])
+        goal = [float(ev['positions'][n]) for n in names]
+
+        def put(values):
+            h.call(ev, '/gazebo/set_model_configuration', SetModelConfiguration, ev['model'],
+                   '', names, list(values))
+        duration = float(ev.get('duration', 0.0))
+        if duration <= 0:
+            put(goal)
+            return
+        start = []
+        for n in names:
+            res = h.call(ev, '/gazebo/get_joint_properties', GetJointProperties,
+                         '%s::%s' % (ev['model'], n))
+            start.append(res.position[0] if len(res.position) else 0.0)
+        interval = float(ev.get('interval', 0.02))
+        steps = max(1, int(round(duration / interval)))
+        for k in range(1, steps + 1):
+            f = k / float(steps)
+            vals = [a + (b - a) * f for a, b in zip(start, goal)]
+            h.later(t0 + duration * f, lambda tt, v=vals: put(v), ev['id'])
+
+
+class Door(Action):
+    """A door on its hinge open or closed: set_joints on the door's model (the office's
+    east_door by default: its hinge 1.5 rad open, 0 closed)."""
+    name = 'door'
+    OPEN, CLOSED = 1.5, 0.0
+
+    def apply(self, h, t0):
+        from mobile_device_sim.srv import SetModelConfiguration
+        ev = self.ev
+        q = ev.get('position', self.OPEN if ev['open'] else self.CLOSED)
+        h.call(ev, '/gazebo/set_model_configuration', SetModelConfiguration,
+               ev.get('model', 'east_door'), '', [ev.get('joint', 'hinge')], [float(q)])
+
+
+class JointEffort(Action):
+    """An effort on a joint for a duration (Gazebo's apply_joint_effort)."""
+    name = 'joint_effort'
+
+    def apply(self, h, t0):
+        import rospy
+        from mobile_device_sim.srv import ApplyJointEffort
+        ev = self.ev
+        d = float(ev.get('duration', 1.0))
+        h.call(ev, '/gazebo/apply_joint_effort', ApplyJointEffort, ev['joint'],
+               float(ev['effort']), rospy.Time(0), rospy.Duration.from_sec(d))
+
+
+def trajectory_class(h):
+    """trajectory_msgs/JointTrajectory, or this package's copy of it (same md5sum)."""
+    for typ in ('trajectory_msgs/JointTrajectory', 'mobile_device_sim/JointTrajectory'):
+        try:
+            cls = h.msg_class(typ)
+        except Exception:  # noqa: BLE001 - roslib raises several kinds for a missing package
+            cls = None
+        if cls is not None:
+            return cls
+    return None
+
+
+def trajectory_msg(cls, ev):
+    """The JointTrajectory of a trajectory action (header stamp 0: start at once)."""
+    import roslib.message
+    import rospy
+    m = cls()
+    m.joint_names = list(ev['joints'])
+    point_type = dict(zip(cls.__slots__, cls._slot_types))['points'].rstrip('[]')
+    pcls = roslib.message.get_message_class(point_type)
+    for pt in ev['points']:
+        p = pcls()
+        p.positions = [float(x) for x in pt['positions']]
+        for k in ('velocities', 'accelerations', 'effort'):
+            if k in pt:
+                setattr(p, k, [float(x) for x in pt[k]])
+        p.time_from_start = rospy.Duration.from_sec(float(pt['time_from_start']))
+        m.points.append(p)
+    return m
+
+
+class Trajectory(Action):
+    """A trajectory_msgs/JointTrajectory to a joint trajectory controller's command topic."""
+    name = 'trajectory'
+
+    def apply(self, h, t0):
+        ev = self.ev
+        cls = trajectory_class(h)
+        if cls is None:
+            raise RunError('%s (trajectory): no trajectory_msgs/JointTrajectory message '
+                           'type here' % ev['id'])
+        topic = '/' + ev['controller'].strip('/') + '/command'
+        h.publish(topic, trajectory_msg(cls, ev))
+
+
+def link_of(h, ev, text):
+    """(model, link) of 'model::link' (a model alone: its root link)."""
+    from mobile_device_sim.srv import GetModelProperties
+    model, sep, link = text.partition('::')
+    if not sep:
+        link = h.call(ev, '/gazebo/get_model_properties', GetModelProperties,
+                      model).canonical_body_name
+    return model, link
+
+
+class Attach(Action):
+    """``holder`` holds ``held`` where they are now (gazebo_ros_link_attacher's attach)."""
+    name = 'attach'
+    service = '/gazebo/attach'
+
+    def apply(self, h, t0):
+        from mobile_device_sim.srv import Attach as AttachSrv
+        ev = self.ev
+        m1, l1 = link_of(h, ev, ev['holder'])
+        m2, l2 = link_of(h, ev, ev['held'])
+        h.call(ev, self.service, AttachSrv, m1, l1, m2, l2)
+
+
+class Detach(Attach):
+    name = 'detach'
+    service = '/gazebo/detach'
+
+
 class Log(Action):
     name = 'log'
 
@@ -384,7 +519,8 @@ class Log(Action):
 
 KINDS = {cls.name: cls for cls in (
     SetModelState, MoveModel, Walk, Rotate, SetEnvironment, Playback, Charger, Radio,
-    PressButton, Touch, ShowImage, SpawnModel, DeleteModel, Fault, Publish, Log)}
+    PressButton, Touch, ShowImage, SpawnModel, DeleteModel, Fault, Publish, Log, SetJoints,
+    Door, JointEffort, Trajectory, Attach, Detach)}
 
 
 def action_of(ev):

@@ -27,24 +27,48 @@ class FieldError(Exception):
     pass
 
 
-_TOKEN = re.compile(r'([A-Za-z_][A-Za-z0-9_]*)|\[(-?\d+)\]')
+_TOKEN = re.compile(r'([A-Za-z_][A-Za-z0-9_]*)|\[(-?\d+|[A-Za-z_][A-Za-z0-9_/:-]*)\]')
+#: the arrays that name the elements of their sibling arrays (sensor_msgs/JointState's name,
+#: gazebo's ModelStates/LinkStates name, a trajectory's joint_names)
+NAME_ARRAYS = ('name', 'joint_names')
+
+
+def _by_name(holder, array, label, done):
+    """The index of ``label`` in the names array beside ``array`` in ``holder``."""
+    for key in NAME_ARRAYS:
+        names = holder.get(key) if isinstance(holder, dict) else getattr(holder, key, None)
+        if isinstance(names, (list, tuple)) and key != array:
+            if label not in names:
+                raise FieldError('%s: no %r in %s (%s)' % (
+                    done, label, key, ', '.join(map(str, names)) or 'empty'))
+            return list(names).index(label)
+    raise FieldError('%s[%s]: %s has no name array (%s) to look %r up in'
+                     % (done, label, done.rsplit('.', 1)[0] if '.' in done else 'the message',
+                        ' or '.join(NAME_ARRAYS), label))
 
 
 def get_field(msg, path):
     """Value at a dotted path with indexes ('linear_acceleration.z', 'values[3].value');
-    '' or None gives the message itself. FieldError names the missing part."""
+    '' or None gives the message itself. An index may be a name, looked up in the names
+    array beside that array (``position[joint2]`` on a sensor_msgs/JointState: the
+    position of the joint named joint2 in ``name``, wherever it is in this message;
+    ``pose[mobile_device].position.z`` on /gazebo/model_states). FieldError names the
+    missing part."""
     if not path:
         return msg
     v = msg
+    holder = None
     pos = 0
     done = ''
     for part in path.split('.'):
         toks = _TOKEN.findall(part)
         if not toks or ''.join(n or '[%s]' % i for n, i in toks) != part:
-            raise FieldError('bad field path %r (expected names with [index], joined by dots)'
-                             % path)
+            raise FieldError('bad field path %r (expected names with [index] or [name], '
+                             'joined by dots)' % path)
+        last_name = None
         for name, idx in toks:
             if name:
+                holder, last_name = v, name
                 if isinstance(v, dict):
                     if name not in v:
                         raise FieldError('%s has no field %r' % (done or 'the message', name))
@@ -60,8 +84,16 @@ def get_field(msg, path):
                     v = getattr(v, name)
                 done = done + ('.' if done else '') + name
             else:
+                if not re.match(r'-?\d+$', idx):
+                    if last_name is None:
+                        raise FieldError('%s[%s]: a name index goes after an array field'
+                                         % (done or 'the message', idx))
+                    i = _by_name(holder, last_name, idx, done)
+                    last_name = None
+                else:
+                    i = int(idx)
                 try:
-                    v = v[int(idx)]
+                    v = v[i]
                 except (IndexError, TypeError, KeyError):
                     raise FieldError('%s has no element [%s]' % (done or 'the message', idx))
                 done += '[%s]' % idx

@@ -70,6 +70,24 @@ ACTIONS = {
     'publish': ({'topic': 'str', 'type': 'str'}, {'msg': 'dict', 'latch': 'bool'},
                 'publish one message (fields as a mapping)'),
     'log': ({'text': 'str'}, {}, 'write a line into the report and the recording'),
+    'set_joints': ({'model': 'str', 'positions': 'joints'},
+                   {'duration': 'num>=0', 'interval': 'num>0'},
+                   'put joints at positions {joint: rad or m}, at rest, at once or moving '
+                   'linearly over duration s (/gazebo/set_model_configuration)'),
+    'joint_effort': ({'joint': 'str', 'effort': 'num'}, {'duration': 'num'},
+                     'apply an effort (N m or N) to a joint (model::joint) for duration s '
+                     '(default 1; < 0: until the end; /gazebo/apply_joint_effort)'),
+    'trajectory': ({'controller': 'str', 'joints': 'names', 'points': 'list'}, {},
+                   'send a trajectory_msgs/JointTrajectory to <controller>/command: points '
+                   '[{positions: [..], time_from_start: s, velocities: [..]}]'),
+    'door': ({'open': 'bool'}, {'model': 'str', 'joint': 'str', 'position': 'num'},
+             "open or close a door on its hinge (default the office's east_door, joint "
+             'hinge: open 1.5 rad, closed 0; /gazebo/set_model_configuration)'),
+    'attach': ({'holder': 'str', 'held': 'str'}, {},
+               'hold model::link held by model::link holder where they are now (a model '
+               'alone: its root link; /gazebo/attach)'),
+    'detach': ({'holder': 'str', 'held': 'str'}, {}, 'let go of what attach held '
+               '(/gazebo/detach)'),
 }
 PREDICATE_KEYS = {
     'equals': 'any', 'near': 'any', 'tol': 'num>=0', 'gt': 'num', 'ge': 'num', 'lt': 'num',
@@ -124,7 +142,11 @@ class Scenario(object):
             e.setdefault('name', 'expect%d' % i)
 
     def resolve(self, p):
-        """A path relative to the scenario file's folder (package:// and absolute kept)."""
+        """A path relative to the scenario file's folder (package:// and absolute kept;
+        pybullet_data://PATH: a file of pybullet's data package, e.g. its robots)."""
+        if p.startswith('pybullet_data://'):
+            import pybullet_data
+            return os.path.join(pybullet_data.getDataPath(), p[len('pybullet_data://'):])
         if p.startswith('package://') or p.startswith('file://') or os.path.isabs(p):
             return p
         return os.path.normpath(os.path.join(self.dir, p))
@@ -199,6 +221,18 @@ def _check_kind(kind, v):
             if not _is_num(x):
                 return 'a number for %s' % k
         return None
+    if kind == 'joints':
+        if not isinstance(v, dict) or not v:
+            return 'a mapping of joint names to positions'
+        for k, x in v.items():
+            if not isinstance(k, str) or not k:
+                return 'joint names as keys, not %r' % (k,)
+            if not _is_num(x):
+                return 'a number for joint %s' % k
+        return None
+    if kind == 'names':
+        return None if isinstance(v, list) and v and all(
+            isinstance(x, str) and x for x in v) else 'a list of names'
     if kind == 'dict':
         return None if isinstance(v, dict) else 'a mapping'
     if kind == 'list':
@@ -244,7 +278,8 @@ def _kind_text(kind):
             'str': 'a string', 'bool': 'true or false', 'vec3': '[x, y, z]',
             'points': 'a list of [x, y, z]', 'series': 'a list of [t, value]',
             'values': 'a mapping name: number', 'nums': 'a list of numbers',
-            'int>=0': 'a whole number'}.get(kind, kind)
+            'int>=0': 'a whole number', 'joints': 'a mapping joint: position',
+            'names': 'a list of names'}.get(kind, kind)
 
 
 def validate(data, path='<scenario>'):
@@ -322,12 +357,45 @@ def _validate_event(v, ev, where, line, duration, ids):
               'event (%s), got %r' % (', '.join(sorted(ids)) or 'none defined', ev['after']))
     if isinstance(ev.get('when'), dict):
         _validate_condition(v, ev['when'], where + '.when', _line(ev, 'when', line))
+    if action == 'trajectory' and isinstance(ev.get('points'), list):
+        _validate_points(v, ev, where, line)
     if action == 'playback':
         if ('name' in ev) == ('topic' in ev):
             v.err(_line(ev, default=line), where, 'expected exactly one of name (an '
                   'environment value) or topic (with type and field)')
         if 'topic' in ev and not ('type' in ev and 'field' in ev):
             v.err(_line(ev, default=line), where, 'a topic playback needs type and field')
+
+
+TRAJECTORY_POINT = {'positions': 'nums', 'time_from_start': 'num>=0', 'velocities': 'nums',
+                    'accelerations': 'nums', 'effort': 'nums'}
+
+
+def _validate_points(v, ev, where, line):
+    """A trajectory's points: mappings with positions (one per joint) and a
+    time_from_start later than the point before."""
+    pts = ev['points']
+    pline = _line(ev, 'points', line)
+    if not pts:
+        v.err(pline, where + '.points', 'expected at least one point')
+    n = len(ev['joints']) if isinstance(ev.get('joints'), list) else None
+    last = None
+    for i, pt in enumerate(pts):
+        pw = '%s.points[%d]' % (where, i)
+        if not v.fields(pt, pw, TRAJECTORY_POINT, required=('positions', 'time_from_start'),
+                        parent_line=_line(pts, i, pline)):
+            continue
+        pl = _line(pt, default=_line(pts, i, pline))
+        for k in ('positions', 'velocities', 'accelerations', 'effort'):
+            if n is not None and isinstance(pt.get(k), list) and len(pt[k]) != n:
+                v.err(_line(pt, k, pl), '%s.%s' % (pw, k), 'expected %d values (one per '
+                      'joint of joints), got %d' % (n, len(pt[k])))
+        t = pt.get('time_from_start')
+        if _is_num(t):
+            if last is not None and t <= last:
+                v.err(_line(pt, 'time_from_start', pl), pw + '.time_from_start',
+                      'expected a time after the point before (%g s), got %g' % (last, t))
+            last = t
 
 
 def _validate_condition(v, cond, where, line):

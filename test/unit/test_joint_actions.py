@@ -198,3 +198,17 @@ def test_the_trajectory_action_sends_a_joint_trajectory():
     assert list(msg.points[1].velocities) == [0.0, 0.0] and not msg.points[0].velocities
     assert math.isclose(msg.points[1].time_from_start.to_sec(), 2.5)
     assert np.all(np.isfinite(msg.points[0].positions))
+
+
+def test_the_xarm6_example_parses():
+    import os
+    from testing_instance.scenario.format import load
+    sc = load(os.path.join(worlds.ROOT, 'testing_instance', 'examples', 'robots',
+                           'xarm6_qr.yaml'))
+    acts = [e['action'] for e in sc.timeline]
+    assert acts == ['spawn_model', 'set_joints', 'set_model_state', 'attach', 'set_joints',
+                    'set_joints']
+    assert os.path.isfile(sc.resolve(sc.timeline[0]['file']))       # pybullet_data://
+    assert os.path.isfile(sc.resolve(sc.apps[0]['script']))
+    assert [e['field'] for e in sc.expect if 'field' in e] == [
+        'pose[mobile_device].position', 'data']

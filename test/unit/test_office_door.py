@@ -38,7 +38,7 @@ def test_the_door_is_open_by_default_and_read_from_sdf():
     m = door_model()
     j = m.joint('hinge')
     assert (j.type, j.lower, j.upper, j.initial, j.friction, j.damping) == \
-        ('revolute', 0.0, 1.5, 1.5, 2.0, 2.0)
+        ('revolute', 0.0, 1.5, 1.5, 2.0, 0.0)
     assert m.root_link == 'world'            # <parent>world</parent>: welded
 
 

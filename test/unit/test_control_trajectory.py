@@ -185,7 +185,7 @@ def test_xarm6_holds_its_home_pose_for_60_s(physics):
             for q, v in w.joint_states('xarm6').values():
                 worst_q, worst_v = max(worst_q, abs(q)), max(worst_v, abs(v))
         c = plugin.manager.controllers['arm']
-        assert worst_v < 1e-3 and worst_q < 1e-6, (worst_v, worst_q)
+        assert worst_v < 1e-3 and worst_q < 2e-6, (worst_v, worst_q)
         assert max(abs(v) for v in c.last_state['actual'][1]) < 1e-3
         assert w.sim_time == pytest.approx(60.0)
     finally:

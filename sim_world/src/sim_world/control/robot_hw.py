@@ -8,8 +8,8 @@ ignored, as DefaultRobotHWSim does), read and commanded through the world's phys
 - position: kinematic, as DefaultRobotHWSim without PID gains: the joint is set to the
   command every write and held there through the step by its velocity-0 motor (its friction
   raised to ``KINEMATIC_HOLD`` while the interface is claimed, put back on release), so
-  gravity does not make it sag or swing between commands; the other joints keep their
-  velocities. Its velocity reads the commanded motion (the change of command over the time
+  gravity does not make it sag or swing between commands (it is set again when it is
+  more than ``KINEMATIC_TOLERANCE`` off); the other joints keep their velocities. Its velocity reads the commanded motion (the change of command over the time
   between writes), zero when held;
 - velocity: the joint's velocity set to the command every step.
 
@@ -24,6 +24,7 @@ KINDS = {'PositionJointInterface': 'position', 'VelocityJointInterface': 'veloci
          'EffortJointInterface': 'effort'}
 KEY = 'gazebo_ros_control'
 KINEMATIC_HOLD = 1e4      # N m or N: the motor that holds a position-commanded joint
+KINEMATIC_TOLERANCE = 1e-6   # rad or m: how far it may be off its command before it is set
 MOVABLE = ('revolute', 'continuous', 'prismatic')
 
 
@@ -151,10 +152,11 @@ class RobotHWSim(object):
                 k = self._kin.get(j)
                 v = (q - k[1]) / (now - k[0]) if k is not None and now > k[0] else 0.0
                 self._kin[j] = (now, q, v)
-            # a held joint stays where its motor holds it: teleport only what moves (the
-            # kinematic move costs a forward kinematics pass of the model)
+            # teleport only what is off its command by more than KINEMATIC_TOLERANCE (a
+            # kinematic move costs a forward kinematics pass of the whole model; Bullet's
+            # motor holds a joint within 1e-6 rad for several steps, ODE's for none)
             positions = dict((j, q) for j, q in positions.items()
-                             if abs(ph.joint_state(m, j)[0] - q) > 1e-12)
+                             if abs(ph.joint_state(m, j)[0] - q) > KINEMATIC_TOLERANCE)
         if positions:
             keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
                         if j not in positions)

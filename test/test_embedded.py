@@ -51,6 +51,10 @@ def test_embedded_world_records_what_the_world_node_records(tmp_path):
         assert len(e[topic]) == len(c[topic]), topic
         for i, (x, y) in enumerate(zip(e[topic], c[topic])):
             assert x == y, '%s message %d (time, bytes) differs embedded and not' % (topic, i)
+    # and the same file: the messages of one sim time in one order (recording_order), not
+    # in the order their threads ran (the world node's all come over sockets)
+    assert (tmp_path / 'emb.bag').read_bytes() == (tmp_path / 'cold.bag').read_bytes(), \
+        'the same messages in another order in the file, embedded and with the world node'
 
 
 def test_an_embedded_run_without_other_publishers_looks_for_topics_only_when_told(tmp_path):

@@ -13,7 +13,8 @@ from std_msgs.msg import Float32, String
 
 from testing_instance.run.inbox import Inbox
 from testing_instance.run.intake import Intake, stamp_of
-from testing_instance.run.recording import EVENTS_TOPIC, META_TOPIC, Recorder, read_meta
+from testing_instance.run.recording import (EVENTS_TOPIC, META_TOPIC, Recorder, read_meta,
+                                            recording_order)
 
 
 class FakeRospy(object):
@@ -184,6 +185,66 @@ def test_recorded_messages_keep_their_times_and_the_recorder_writes_events_and_m
         (tp, round(t, 9)) for tp, t in msgs]
     assert events == [{'action': 'walk', 'id': 'go', 't': 0.25, 'text': 'event'}]
     assert sorted(t for tp, t in msgs if tp == '/n') == [1.0 + i for i in range(8)]
+
+
+def test_recording_order_is_time_then_topic_then_arrival():
+    rows = [(1, 0, 1, '/b', 'b1'), (0, 5, 2, '/z', 'z'), (1, 0, 3, '/a', 'a'),
+            (1, 0, 4, '/b', 'b2'), (0, 500000000, 5, '/a', 'early')]
+    assert [r[4] for r in recording_order(rows)] == ['z', 'early', 'a', 'b1', 'b2']
+
+
+def _file_order(path):
+    """(topic, log time ns) of an MCAP file's messages in the order they are in the file."""
+    from mcap.reader import make_reader
+    with open(path, 'rb') as f:
+        return [(ch.topic, m.log_time) for _s, ch, m in
+                make_reader(f).iter_messages(log_time_order=False)]
+
+
+def test_a_slices_messages_go_to_the_file_in_one_order_whichever_thread_came_first(tmp_path):
+    """Messages of different topics at one sim time reach the intake in whatever order the
+    subscriber threads run (an app's answer, a latched topic, a world node's messages over
+    sockets): the recording is the same file, byte for byte, for every such order. What
+    came in is written at the end of the slice handshake (stamp_held), by time, then
+    topic, then arrival within a topic."""
+    def world(t):
+        return lambda: _from(_imu(t), '/sim_world')
+
+    def app(v):
+        return lambda: _from(Float32(v), '/app')           # unstamped: at the slice's end
+    per_topic = {'/mobile_device/imu': [world(0.25), world(0.25)],
+                 '/mobile_device/fix': [world(0.25), world(0.5)],
+                 '/mobile_device/audio': [world(0.2)],
+                 '/app/answer': [app(2.0), app(1.0)]}
+    files = []
+    for n, order in enumerate((['/mobile_device/imu', '/mobile_device/fix', '/mobile_device/imu',
+                                '/app/answer', '/mobile_device/audio', '/mobile_device/fix',
+                                '/app/answer'],
+                               ['/app/answer', '/mobile_device/fix', '/app/answer',
+                                '/mobile_device/audio', '/mobile_device/imu',
+                                '/mobile_device/fix', '/mobile_device/imu'])):
+        rec = Recorder()
+        paths = [str(tmp_path / ('r%d.bag' % n)), str(tmp_path / ('r%d.mcap' % n))]
+        rec.open(paths)
+        it = _intake(recorder=rec)
+        it.hold_unstamped, it.input_node = True, '/sim_world'
+        left = {topic: list(msgs) for topic, msgs in per_topic.items()}
+        for topic in order:
+            it.on_message(left[topic].pop(0)(), topic)
+        rec.event(0.5, 'event', id='go', action='walk')
+        it.stamp_held(0.5)        # the handshake's end: the slice is written
+        assert rec.close() == []
+        files.append([open(p, 'rb').read() for p in paths])
+    assert files[0] == files[1]
+    ms = 1000000
+    assert _file_order(str(tmp_path / 'r1.mcap')) == [
+        ('/mobile_device/audio', 200 * ms), ('/mobile_device/fix', 250 * ms),
+        ('/mobile_device/imu', 250 * ms), ('/mobile_device/imu', 250 * ms),
+        ('/app/answer', 500 * ms), ('/app/answer', 500 * ms), ('/mobile_device/fix', 500 * ms),
+        (EVENTS_TOPIC, 500 * ms)]
+    with rosbag.Bag(str(tmp_path / 'r1.bag')) as b:    # a topic's own order: its arrival
+        answers = [m.data for _tp, m, _t in b.read_messages(topics=['/app/answer'])]
+    assert answers == [2.0, 1.0]
 
 
 def test_a_recording_that_cannot_be_made_is_an_error_naming_the_file(tmp_path):

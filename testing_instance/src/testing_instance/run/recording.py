@@ -4,7 +4,17 @@ the meta, and the ``Recorder`` the runner writes through.
 A recording holds every message the runner subscribed to, at its sim time (the stamp, or
 the time the slice handshake gave an unstamped message), the timeline's events on
 ``/scenario/events`` and one ``/scenario/meta`` message (seed, inputs, t0, duration,
-types) that a replay reads first."""
+types) that a replay reads first.
+
+The file's order is the same in every run of a scenario and seed, whatever way it is run
+(embedded, with a world node, attached, loaded, replayed): the messages wait in the
+Recorder until the end of the slice handshake that completes them (``flush``: the runner's
+intake calls it once the slice's unstamped messages are timed) and go to the file in
+``recording_order``: by recorded time, then topic, then arrival within the topic. Written
+as they arrived, messages of different topics at one sim time were in the order their
+threads happened to run: an app's answer, a latched topic, a replayed input and every
+message of a world node come over sockets, and two runs of one scenario gave files that
+differed in that order (while each topic's own messages were the same)."""
 import json
 import threading
 
@@ -14,7 +24,8 @@ HEAVY_TYPES = ('sensor_msgs/Image', 'sensor_msgs/CompressedImage', 'sensor_msgs/
 EVENTS_TOPIC = '/scenario/events'
 META_TOPIC = '/scenario/meta'
 
-__all__ = ['HEAVY_TYPES', 'EVENTS_TOPIC', 'META_TOPIC', 'read_meta', 'Recorder']
+__all__ = ['HEAVY_TYPES', 'EVENTS_TOPIC', 'META_TOPIC', 'read_meta', 'recording_order',
+           'Recorder']
 
 
 def read_meta(bag):
@@ -24,18 +35,29 @@ def read_meta(bag):
     return None
 
 
+def recording_order(rows):
+    """``rows`` [(secs, nsecs, arrival, topic, msg)] (the recorded time, a number that grows
+    with each message received) in the order they go to the file: by recorded time, then
+    topic, then arrival (a topic's own messages stay in the order they came)."""
+    return sorted(rows, key=lambda r: (r[0], r[1], r[3], r[2]))
+
+
 class Recorder(object):
     """Writes the run's recording to every ``--record`` path (a rosbag, an MCAP file, or
     both: mcap_io.GuardedWriter); records nothing until ``open``.
 
     Thread-safe: the subscriber threads (or an embedded world's thread) write while the
-    loop writes events. A storage fault never raises: ``close`` returns one line per fault,
-    which the runner reports as the run's ERROR after its verdicts."""
+    loop writes events. ``write``, ``event`` and ``meta`` keep the message until the next
+    ``flush`` (the end of a slice handshake) or ``close``, which write what was kept in
+    ``recording_order`` (module doc). A storage fault never raises: ``close`` returns one
+    line per fault, which the runner reports as the run's ERROR after its verdicts."""
 
     def __init__(self):
         self._writer = None
         self._lock = threading.Lock()
         self._time = None
+        self._kept = []              # [(secs, nsecs, arrival, topic, msg)] until the flush
+        self._n = 0
 
     @property
     def active(self):
@@ -50,10 +72,26 @@ class Recorder(object):
         self._writer = GuardedWriter(paths)
 
     def write(self, topic, msg, t):
-        """``msg`` on ``topic`` at sim time ``t`` (s)."""
+        """``msg`` on ``topic`` at sim time ``t`` (s), written at the next flush."""
         with self._lock:
             if self._writer is not None:
-                self._writer.write(topic, msg, self._time(max(t, 1e-9)))
+                when = self._time(max(t, 1e-9))
+                self._n += 1
+                self._kept.append((when.secs, when.nsecs, self._n, topic, msg))
+
+    def flush(self):
+        """Write what was kept since the last flush, in ``recording_order``."""
+        with self._lock:
+            self._flush()
+
+    def _flush(self):
+        kept, self._kept = self._kept, []
+        if self._writer is None or not kept:
+            return
+        from rospy import Time
+        write = self._writer.write
+        for secs, nsecs, _n, topic, msg in recording_order(kept):
+            write(topic, msg, Time(secs, nsecs))
 
     def event(self, t, text, **fields):
         """A timeline event at sim time ``t``: a JSON object on EVENTS_TOPIC."""
@@ -70,7 +108,9 @@ class Recorder(object):
         self.write(topic, String(json.dumps(obj, sort_keys=True)), t)
 
     def close(self):
-        """Close every file; returns the storage faults' lines (empty: all written)."""
+        """Write what is kept, close every file; returns the storage faults' lines (empty:
+        all written)."""
         with self._lock:
+            self._flush()
             w, self._writer = self._writer, None
         return w.close() if w is not None else []

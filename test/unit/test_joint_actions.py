@@ -34,7 +34,8 @@ def problems(text):
 
 
 def test_the_joint_actions_validate():
-    sc = loads(HEAD + '''  - {at: 0, action: set_joints, model: xarm6, positions: {joint1: 0.5, joint2: -0.3}}
+    sc = loads(HEAD + '''  - {at: 0, action: set_joints, model: xarm6,
+     positions: {joint1: 0.5, joint2: -0.3}}
   - {at: 0, action: joint_effort, joint: "east_door::hinge", effort: -20, duration: 2}
   - {at: 0, action: door, open: false}
   - {at: 0, action: attach, holder: "xarm6::link6", held: mobile_device}
@@ -203,12 +204,12 @@ def test_the_trajectory_action_sends_a_joint_trajectory():
 def test_the_xarm6_example_parses():
     import os
     from testing_instance.scenario.format import load
-    sc = load(os.path.join(worlds.ROOT, 'testing_instance', 'examples', 'robots',
-                           'xarm6_qr.yaml'))
-    acts = [e['action'] for e in sc.timeline]
-    assert acts == ['spawn_model', 'set_joints', 'set_model_state', 'attach', 'set_joints',
-                    'set_joints']
-    assert os.path.isfile(sc.resolve(sc.timeline[0]['file']))       # pybullet_data://
+    folder = os.path.join(worlds.ROOT, 'testing_instance', 'examples', 'robots')
+    sc = load(os.path.join(folder, 'xarm6_qr.yaml'))
+    assert [e['action'] for e in sc.timeline] == ['set_model_state', 'attach', 'trajectory']
+    assert sc.timeline[2]['when']['field'] == 'position[joint1]'
+    assert os.path.isfile(sc.resolve(sc.world['launch']))
     assert os.path.isfile(sc.resolve(sc.apps[0]['script']))
+    assert os.access(os.path.join(folder, 'xarm6_description'), os.X_OK)
     assert [e['field'] for e in sc.expect if 'field' in e] == [
-        'pose[mobile_device].position', 'data']
+        'position[joint1]', 'pose[mobile_device].position', 'data']

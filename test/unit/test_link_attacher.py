@@ -231,7 +231,8 @@ def test_the_held_phones_imu_reads_the_arms_motion(engine, caplog):
     turns at 0.5 rad/s (no gravity): the gyro reads link6's angular velocity in the phone's frame."""
     from simsensors.imu import ImuPlugin
     caplog.set_level(logging.ERROR)
-    w = worlds.make_world(engine, phone=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0))
+    w = worlds.make_world(engine, phone=(0.0, 0.0, 0.0),
+                          gravity=(0.0, 0.0, 0.0))
     try:
         w.add_model(xarm6())
         w.physics.set_joint_positions('xarm6', HOME)

@@ -16,8 +16,10 @@ The two bodies do not collide with each other while attached. Removing a model d
 attachments. Bullet holds a link of an articulated model (a multibody) and a one-body model
 together, or anything with a static model (the held body is made static until detached);
 two one-body or two articulated models only in ODE (pybullet's fixed constraint between two
-free rigid bodies ignores the frames' orientations), refused by name in Bullet. Bad input raises ``KeyError`` / ``ValueError`` with a sentence naming it.
+free rigid bodies ignores the frames' orientations), refused by name in Bullet. Bad input
+raises ``KeyError`` / ``ValueError`` with a sentence naming it.
 """
+
 __all__ = ['Attachment', 'Attachments']
 
 

@@ -66,6 +66,65 @@ for line in sys.stdin:
         ('/mobile_device/battery_state', 'sensor_msgs/BatteryState')],)
 
 
+# beside the office (test_studio_world): a red pyramid that is a mesh (STL), and a pendulum
+# hinged to the world, let go 1 rad off the vertical (it swings, undamped, all along)
+EXTRA_MODELS = """
+    <model name="studio_pyramid">
+      <static>true</static>
+      <pose>4.8 -3.9 0 0 0 0</pose>
+      <link name="body">
+        <visual name="v"><geometry><mesh><uri>file://%(stl)s</uri></mesh></geometry>
+          <material><diffuse>0.9 0.1 0.1 1</diffuse></material></visual>
+      </link>
+    </model>
+    <model name="studio_pendulum">
+      <pose>4.8 -4.5 1.2 0 0 0</pose>
+      <link name="rod">
+        <pose>0 0 0 0 1.0 0</pose>
+        <inertial><pose>0 0 -0.45 0 0 0</pose><mass>1</mass>
+          <inertia><ixx>0.02</ixx><iyy>0.02</iyy><izz>0.001</izz>
+            <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
+        <visual name="rod"><pose>0 0 -0.25 0 0 0</pose>
+          <geometry><cylinder><radius>0.02</radius><length>0.5</length></cylinder></geometry>
+          <material><diffuse>0.1 0.2 0.9 1</diffuse></material></visual>
+        <visual name="bob"><pose>0 0 -0.5 0 0 0</pose>
+          <geometry><sphere><radius>0.08</radius></sphere></geometry>
+          <material><diffuse>0.1 0.2 0.9 1</diffuse></material></visual>
+      </link>
+      <joint name="hinge" type="revolute">
+        <parent>world</parent><child>rod</child>
+        <axis><xyz>0 1 0</xyz><limit><lower>-1e16</lower><upper>1e16</upper></limit></axis>
+      </joint>
+    </model>
+"""
+
+
+def pyramid_stl(path, base=0.4, height=0.5):
+    """A binary STL of a square pyramid standing on z = 0 (outward faces)."""
+    h = base / 2
+    a, b, c, d, top = (-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0), (0, 0, height)
+    tris = [(a, c, b), (a, d, c), (a, b, top), (b, c, top), (c, d, top), (d, a, top)]
+    data = bytearray(b'pyramid'.ljust(80) + len(tris).to_bytes(4, 'little'))
+    for t in tris:
+        data += np.array([0, 0, 0] + [x for p in t for x in p], '<f4').tobytes() + b'\0\0'
+    with open(path, 'wb') as f:
+        f.write(bytes(data))
+
+
+def studio_world(d):
+    """office.world with EXTRA_MODELS (its media by absolute path)."""
+    office = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
+    text = open(office).read().replace('<texture>media/', '<texture>%s/' % os.path.join(
+        os.path.dirname(office), 'media'))
+    stl = str(d / 'pyramid.stl')
+    pyramid_stl(stl)
+    i = text.rindex('</world>')
+    path = str(d / 'studio_test.world')
+    with open(path, 'w') as f:
+        f.write(text[:i] + EXTRA_MODELS % {'stl': stl} + text[i:])
+    return path
+
+
 def descendants(pid):
     from testing_instance.world.procs import descendants as d
     return d(pid)
@@ -82,7 +141,8 @@ def studio(tmp_path_factory):
     # started with SIGINT ignored, as a background job of a non-interactive shell (CI) starts
     # it: Ctrl-C must still stop it (test_ctrl_c_leaves_no_process_behind)
     p = subprocess.Popen([sys.executable, NODE, '--port', '0', 'camera_rate:=5',
-                          'flycam:=false', 'seed:=1'], env=env, stdout=log,
+                          'flycam:=false', 'seed:=1', 'world:=' + studio_world(d)],
+                         env=env, stdout=log,
                          stderr=subprocess.STDOUT, start_new_session=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     url, deadline = None, time.monotonic() + 120
@@ -357,6 +417,59 @@ def test_the_device_panel_shows_the_phones_sensor_values(studio, page):
     text = page.get_by_test_id('device-panel').text_content()
     for topic in ('/mobile_device/fix', '/mobile_device/wifi/scan'):
         assert topic in text, text[:2000]
+
+
+def viewport_pixels(page, after_frames=2):
+    n = page.evaluate('studio.frames')
+    page.wait_for_function('studio.frames >= %d' % (n + after_frames), timeout=30000)
+    return png_pixels(data_url(page, "document.querySelector('[data-testid=viewport]')"))
+
+
+def test_a_mesh_is_drawn_as_its_triangles_not_its_bounding_box(studio, page):
+    page.wait_for_function('studio.shapesLoaded >= 2', timeout=60000)   # pyramid, QR paper
+    assert page.evaluate("studio.lookAt('studio_pyramid', [-1.2, 0.5, 0.6])")
+    page.evaluate('studio.handle.visible = false')      # its arrows are red, green, blue
+    red = lambda px: (px[:, :, 0] > 100) & (px[:, :, 0] > 2 * px[:, :, 1]) & \
+        (px[:, :, 0] > 2 * px[:, :, 2])                                  # noqa: E731
+    mesh = red(viewport_pixels(page))
+    page.evaluate('studio.showShapeBoxes(true)')
+    box = red(viewport_pixels(page))
+    page.evaluate('studio.showShapeBoxes(false)')
+    page.evaluate("studio.handle.visible = true; studio.lookAt('mobile_device')")
+    assert mesh.sum() > 500, 'the pyramid is not drawn'
+    # a pyramid covers its box's outline only partly: the box's top corners are not red
+    assert box.sum() > 1.3 * mesh.sum(), (box.sum(), mesh.sum())
+    assert (box & ~mesh).sum() > 0.2 * box.sum()
+    assert not (mesh & ~box).sum() > 0.02 * mesh.sum()   # and it is inside it
+
+
+def test_a_jointed_model_is_drawn_at_its_link_states(studio, page):
+    page.evaluate("studio.send({op: 'play'})")
+    page.wait_for_function("studio.links.studio_pendulum && studio.links.studio_pendulum.rod",
+                           timeout=30000)
+    assert page.evaluate("studio.lookAt('studio_pendulum', [0, 2.2, -0.3])")
+    page.evaluate('studio.handle.visible = false')
+    blue = lambda px: (px[:, :, 2] > 100) & (px[:, :, 2] > 2 * px[:, :, 0])   # noqa: E731
+    shots, times = [], []
+    for _ in range(4):
+        times.append(page.evaluate('studio.simTime'))
+        shots.append(blue(viewport_pixels(page)))
+        time.sleep(0.2)
+    page.evaluate("studio.handle.visible = true; studio.lookAt('mobile_device')")
+    assert all(m.sum() > 200 for m in shots), [m.sum() for m in shots]
+    changed = max((a ^ b).sum() for a in shots for b in shots)
+    assert changed > 200, ('the pendulum does not move in the view', times,
+                           [m.sum() for m in shots])
+    with urllib.request.urlopen(studio['url'] + 'api/scene', timeout=30) as r:
+        pend = next(m for m in json.loads(r.read())['models'] if m['name'] == 'studio_pendulum')
+    rod = next(ln for ln in pend['links'] if ln['name'] == 'rod')
+    assert rod['world_pose'] != _rest_world_pose(pend, rod), 'GET /api/scene: rest poses'
+
+
+def _rest_world_pose(model, link):
+    from sim_studio.server import _compose
+    p = model['pose']
+    return _compose(list(p['position']) + list(p['orientation']), link['pose'])
 
 
 def test_drag_the_handle_record_and_run(studio, page):

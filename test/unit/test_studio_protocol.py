@@ -29,6 +29,9 @@ class FakeWorld(object):
     def rtf(self):
         return 1.0
 
+    def link_poses(self):
+        return {}
+
     def set_pose(self, *a):
         self.calls.append(('set_pose',) + a)
 

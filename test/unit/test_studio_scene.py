@@ -87,3 +87,45 @@ def test_flatten_names_the_fields_of_a_message():
                      ('/mobile_device/image_raw', 'sensor_msgs/Image'),
                      ('/flycam/imu', 'sensor_msgs/Imu')]) == [
         ('/mobile_device/magnetic', 'sensor_msgs/MagneticField')]
+
+
+def test_meshes_and_textured_shapes_are_served_as_the_renderers_triangles(tmp_path):
+    import json
+    import struct
+    import numpy as np
+    import sys
+    sys.path.insert(0, worlds.ROOT + '/test')
+    from test_studio import pyramid_stl, studio_world
+    path = studio_world(tmp_path)
+    assets = scene.Assets()
+    models = {m['name']: m for m in scene.describe_world_file(path, assets)}
+    g = models['studio_pyramid']['links'][0]['visuals'][0]['geometry']
+    assert g['kind'] == 'shape' and g['source'] == 'mesh'
+    assert np.allclose(g['size'], [0.4, 0.4, 0.5]) and np.allclose(g['center'], [0, 0, 0.25])
+    data = assets.shape_bytes(int(g['url'].rsplit('/', 1)[1]))
+    n = struct.unpack('<I', data[:4])[0]
+    head = json.loads(data[4:4 + n])
+    pos = np.frombuffer(data[4 + n:4 + n + 12 * head['count']], '<f4').reshape(-1, 3)
+    assert head['count'] == 18 and len(data) == 4 + n + 32 * head['count']
+    assert np.isclose(pos[:, 2].max(), 0.5) and np.isclose(pos[:, 0].min(), -0.2)
+    assert head['parts'] == [{'first': 0, 'count': 18, 'rgba': [0.9, 0.1, 0.1, 1.0],
+                              'texture': None}]
+    # the office's QR paper: a box with a texture, served with the renderer's uvs
+    paper = [v['geometry'] for m in models.values() for ln in m['links']
+             for v in ln['visuals'] if v['geometry'].get('source') == 'box']
+    assert len(paper) == 1
+    data = assets.shape_bytes(int(paper[0]['url'].rsplit('/', 1)[1]))
+    head = json.loads(data[4:4 + struct.unpack('<I', data[:4])[0]])
+    url = head['parts'][0]['texture']
+    assert url.startswith('/texture/')
+    png = assets.texture_png(int(url.rsplit('/', 1)[1]))
+    assert png[:8] == b'\x89PNG\r\n\x1a\n'
+    with pytest.raises(IndexError):
+        assets.shape_bytes(99)
+    # a mesh file that is not there: one line, a small box, the rest is described
+    bad = tmp_path / 'bad.world'
+    bad.write_text(open(path).read().replace(str(tmp_path / 'pyramid.stl'), '/no/such.stl'))
+    m = {m['name']: m for m in scene.describe_world_file(str(bad), scene.Assets())}
+    g = m['studio_pyramid']['links'][0]['visuals'][0]['geometry']
+    assert g['kind'] == 'box' and 'no/such.stl' in g['error']
+    assert pyramid_stl

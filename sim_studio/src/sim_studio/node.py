@@ -41,14 +41,15 @@ def _launch_path(world):
     return path
 
 
-def _scene_models(rospy):
-    """The known models' descriptions: the world file's, and the launch file's URDFs."""
+def _scene_models(rospy, assets=None):
+    """The known models' descriptions: the world file's, and the launch file's URDFs (their
+    meshes and textures registered in ``assets``)."""
     from . import scene
     out = []
     wf = rospy.get_param('/sim_world/world_file', None)
     if wf:
         try:
-            out += scene.describe_world_file(wf)
+            out += scene.describe_world_file(wf, assets)
         except Exception as e:  # noqa: BLE001 - the view then shows boxes for them
             print('studio: cannot read the world file %s: %s' % (wf, e), flush=True)
     for param, name in (('/robot_description', 'mobile_device'),
@@ -56,7 +57,7 @@ def _scene_models(rospy):
         text = rospy.get_param(param, None)
         if text:
             try:
-                out.append(scene.describe_urdf(text, name))
+                out.append(scene.describe_urdf(text, name, assets))
             except Exception as e:  # noqa: BLE001
                 print('studio: cannot read %s: %s' % (param, e), flush=True)
     return out
@@ -121,10 +122,13 @@ def main(argv=None):
                 return 2
         # argv without the launch arguments (rospy would take them as remappings)
         rospy.init_node('studio', argv=[sys.argv[0]], anonymous=True, disable_signals=True)
+        from .scene import Assets
+        assets = Assets()
+        models = _scene_models(rospy, assets)
         world = WorldLink(rospy, a.camera_topic)
+        world.articulated = {m['name'] for m in models if m.get('articulated')}
         world.start()
-        models = _scene_models(rospy)
-        studio = Studio(world, models, rate=a.rate, camera_rate=a.camera_rate,
+        studio = Studio(world, models, rate=a.rate, camera_rate=a.camera_rate, assets=assets,
                         token=token, run_dir=run_dir,
                         launch=a.world if a.world == 'office' else os.path.abspath(a.world))
         phones = [m['name'] for m in models if m.get('display')]

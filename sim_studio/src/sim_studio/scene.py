@@ -1,21 +1,27 @@
 """What the 3D view draws: each model's links and their visuals (boxes, cylinders, spheres,
-planes; a mesh is drawn as its bounding box in this first version), read with sim_world's
-own loaders (sdf.load_world_file for the world file, urdf.parse_urdf for a spawned model's
-description), and the link poses at the model's rest pose (its joints at zero)."""
+planes; meshes and textured shapes as the renderer's own triangles, served by ``Assets``),
+read with sim_world's own loaders (sdf.load_world_file for the world file, urdf.parse_urdf
+for a spawned model's description), the link poses at the model's rest pose (its joints at
+zero: the stream moves them to /gazebo/link_states), and the phones' touch displays."""
 import logging
 
 import numpy as np
 
 from sim_world.transforms import Pose
 
-__all__ = ['describe_model', 'describe_world_file', 'describe_urdf', 'link_poses', 'display_of']
+__all__ = ['Assets', 'describe_model', 'describe_world_file', 'describe_urdf', 'link_poses',
+           'display_of']
 
 
 def _pose(p):
     return {'position': [float(v) for v in p.p], 'orientation': [float(v) for v in p.q]}
 
 
-def _geometry(g):
+def _geometry(g, model=None, visual=None, assets=None):
+    """What the page draws for a geometry: boxes, cylinders, spheres and planes as three.js
+    primitives; a mesh, and a textured shape, as the renderer's own triangles (``shape``:
+    the url the studio serves them at, and their bounding box as ``size`` and ``center``,
+    drawn until they arrive)."""
     out = {'kind': g.kind}
     if g.kind == 'box':
         out['size'] = [float(v) for v in g.size]
@@ -26,9 +32,107 @@ def _geometry(g):
     elif g.kind == 'plane':
         size = [float(v) for v in g.size[:2]]
         out['size'] = [s if s > 0 else 100.0 for s in size]
-    else:                    # mesh: approximated (its scale as a box) in this version
-        out = {'kind': 'box', 'size': [float(v) * 0.1 for v in g.scale], 'mesh': g.filename}
+    textured = visual is not None and visual.material.texture and g.kind != 'plane'
+    if assets is not None and (g.kind == 'mesh' or textured):
+        return assets.shape(g, model, visual, out)
+    if g.kind == 'mesh':     # no assets to serve it from: a small box where it is
+        out = {'kind': 'box', 'size': [0.05, 0.05, 0.05], 'mesh': g.filename}
     return out
+
+
+class Assets(object):
+    """The meshes and textures the page may fetch, by number: ``/shape/N`` (the
+    renderer's triangles of a visual, ``sim_world.render.shapes.geometry_mesh``: the same
+    mesh loader as the physics and the camera, so units, up axis, scale and winding are
+    theirs) and ``/texture/N`` (a PNG). Nothing else on the disk is served."""
+
+    def __init__(self):
+        self.shapes = []          # [(Geometry, Model, visual)]
+        self.textures = []        # [path or RGBA array]
+        self._texture_ids = {}
+
+    def shape(self, g, model, visual, out):
+        from sim_world.render import shapes
+        try:
+            mesh = shapes.geometry_mesh(g, model.resolve_path if model is not None else None)
+        except (shapes.MeshLoadError, ValueError) as e:
+            print('studio: model %s: a visual is drawn as a small box: %s'
+                  % (model.name if model is not None else '?', e), flush=True)
+            return {'kind': 'box', 'size': [0.05, 0.05, 0.05], 'error': str(e)}
+        lo, hi = mesh.bounds()
+        self.shapes.append((g, model, visual))
+        return dict(out, kind='shape', url='/shape/%d' % (len(self.shapes) - 1),
+                    source=g.kind, size=[float(v) for v in (hi - lo)],
+                    center=[float(v) for v in (hi + lo) / 2])
+
+    def texture_url(self, key):
+        """The url of a texture (a file path, or an image array of a mesh file)."""
+        k = key if isinstance(key, str) else id(key)
+        if k not in self._texture_ids:
+            self._texture_ids[k] = len(self.textures)
+            self.textures.append(key)
+        return '/texture/%d' % self._texture_ids[k]
+
+    def shape_bytes(self, n):
+        """The binary of shape ``n``: a little-endian uint32 header length, the JSON header
+        ({count, double, parts: [{first, count, rgba, texture}]}) padded to 4 bytes, then
+        float32 positions (3 count), normals (3 count) and texture coordinates (2 count,
+        t = 0 at the image's top). KeyError/IndexError for an unknown one."""
+        import json
+        import struct
+        from sim_world.render import shapes
+        g, model, visual = self.shapes[int(n)]
+        mesh = shapes.geometry_mesh(g, model.resolve_path if model is not None else None)
+        mat = visual.material if visual is not None else None
+        rgba = [float(c) for c in np.asarray(mat.rgba, float)[:4]] if mat is not None \
+            else [0.8, 0.8, 0.8, 1.0]
+        parts = []
+        if mat is not None and mat.texture:
+            path = model.resolve_path(mat.texture) if model is not None else mat.texture
+            parts = [{'first': 0, 'count': mesh.count, 'rgba': [1, 1, 1, rgba[3]],
+                      'texture': self.texture_url(path)}]
+        elif _file_materials(mat) and any(c is not None or img is not None
+                                          for _f, _n, c, img in mesh.parts):
+            for first, count, color, img in mesh.parts:
+                parts.append({'first': int(first), 'count': int(count),
+                              'rgba': [float(c) for c in color] if color is not None
+                              and img is None else (rgba if img is None else [1, 1, 1, 1]),
+                              'texture': self.texture_url(img) if img is not None else None})
+        else:
+            parts = [{'first': 0, 'count': mesh.count, 'rgba': rgba, 'texture': None}]
+        head = json.dumps({'count': mesh.count, 'double': bool(mesh.double_sided),
+                           'parts': parts}).encode()
+        head += b' ' * (-len(head) % 4)
+        return struct.pack('<I', len(head)) + head + b''.join(
+            np.ascontiguousarray(a, '<f4').tobytes()
+            for a in (mesh.positions, mesh.normals, mesh.uvs))
+
+    def texture_png(self, n):
+        """PNG bytes of texture ``n``; IndexError for an unknown one, ValueError for an
+        unreadable file."""
+        import cv2
+        key = self.textures[int(n)]
+        if isinstance(key, str):
+            img = cv2.imread(key, cv2.IMREAD_UNCHANGED)
+            if img is None:
+                raise ValueError('cannot read the texture %s' % key)
+        else:
+            img = np.asarray(key, np.uint8)
+            if img.ndim == 3 and img.shape[2] == 4:
+                img = cv2.cvtColor(img, cv2.COLOR_RGBA2BGRA)
+            elif img.ndim == 3:
+                img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+        ok, buf = cv2.imencode('.png', img)
+        if not ok:
+            raise ValueError('cannot encode texture %d' % int(n))
+        return buf.tobytes()
+
+
+def _file_materials(mat):
+    """True when a visual names no material of its own, so the mesh file's colours apply
+    (the renderer's rule)."""
+    return mat is None or (mat.name is None and not mat.texture
+                           and np.allclose(mat.rgba, (0.8, 0.8, 0.8, 1.0)))
 
 
 def link_poses(model):
@@ -51,8 +155,9 @@ def link_poses(model):
     return poses
 
 
-def describe_model(model):
-    """{'name', 'static', 'links': [{'name', 'pose' (in the model frame), 'visuals'}]}."""
+def describe_model(model, assets=None):
+    """{'name', 'static', 'links': [{'name', 'pose' (in the model frame), 'visuals'}]};
+    meshes and textured shapes are registered in ``assets`` (without: small boxes)."""
     links = []
     for name, pose in link_poses(model).items():
         link = model.links.get(name)
@@ -61,11 +166,13 @@ def describe_model(model):
         visuals = []
         for v in link.visuals:
             rgba = [float(c) for c in np.asarray(v.material.rgba, float)[:4]]
-            visuals.append({'geometry': _geometry(v.geometry), 'origin': _pose(v.origin),
+            visuals.append({'geometry': _geometry(v.geometry, model, v, assets),
+                            'origin': _pose(v.origin),
                             'rgba': rgba})
         links.append({'name': name, 'pose': _pose(pose), 'visuals': visuals})
     out = {'name': model.name, 'static': bool(model.static), 'links': links,
-           'pose': _pose(model.pose)}
+           'pose': _pose(model.pose),
+           'articulated': any(j.movable for j in model.joints)}
     display = display_of(model)
     if display is not None:
         out['display'] = display
@@ -135,17 +242,17 @@ def _element(body):
     return e
 
 
-def describe_world_file(path):
+def describe_world_file(path, assets=None):
     """The models of a world file (sdf), described."""
     from sim_world.sdf import load_world_file
-    return [describe_model(m) for m in load_world_file(path).models]
+    return [describe_model(m, assets) for m in load_world_file(path).models]
 
 
-def describe_urdf(text, name):
+def describe_urdf(text, name, assets=None):
     from sim_world.urdf import parse_urdf
     model = parse_urdf(text, name=name)
     if not model.robot_namespace:
         # spawned as the launch files spawn it: in the namespace of its own name (the
         # studio calls /<model>/inject_touch)
         model.robot_namespace = name
-    return describe_model(model)
+    return describe_model(model, assets)

@@ -79,8 +79,9 @@ class Studio(object):
     test's stand-in with the same methods)."""
 
     def __init__(self, world, scene_models=(), rate=40.0, camera_rate=15.0, token=None,
-                 run_dir=None, launch='office'):
+                 run_dir=None, launch='office', assets=None):
         self.world = world
+        self.assets = assets             # scene.Assets: the meshes and textures served
         self.scene_models = list(scene_models)     # scene.describe_* of the known models
         self.rate = rate
         self.camera_rate = camera_rate
@@ -254,19 +255,27 @@ class Studio(object):
         """Every model in the world: its pose, its links (pose in the world at the model's
         rest configuration), the visuals the page draws."""
         poses = self.world.poses()
+        moving = self._link_poses()
         known = {m['name']: m for m in self.scene_models}
         models = []
         for name, pq in sorted(poses.items()):
             d = known.get(name, {'name': name, 'static': False, 'links': []})
+            now = moving.get(name, {})
             models.append(dict(d, pose={'position': pq[:3], 'orientation': pq[3:]},
-                               links=[dict(ln, world_pose=_compose(pq, ln['pose']))
+                               links=[dict(ln, world_pose={'position': now[ln['name']][:3],
+                                                           'orientation': now[ln['name']][3:]}
+                                           if ln['name'] in now else _compose(pq, ln['pose']))
                                       for ln in d['links']]))
         return {'v': protocol.VERSION, 'sim_time': self.world.clock, 'rtf': self.world.rtf(),
                 'models': models}
 
+    def _link_poses(self):
+        return self.world.link_poses()
+
     def poses_message(self):
         return json.dumps({'v': protocol.VERSION, 'type': 'poses', 't': self.world.clock,
                            'rtf': round(self.world.rtf(), 3), 'poses': self.world.poses(),
+                           'links': self._link_poses(),
                            'recording': self.recorder.on, 'world_gone': self.world_gone},
                           separators=(',', ':'))
 
@@ -444,11 +453,33 @@ def make_app(studio):
     async def favicon(_request):
         return web.Response(status=204)
 
+    def asset(kind):
+        cache = {}
+
+        async def get(request):
+            n = request.match_info['n']
+            if studio.assets is None or not n.isdigit():
+                raise web.HTTPNotFound()
+            if n not in cache:
+                fn = studio.assets.shape_bytes if kind == 'shape' else studio.assets.texture_png
+                try:
+                    cache[n] = await asyncio.get_event_loop().run_in_executor(None, fn, n)
+                except IndexError:
+                    raise web.HTTPNotFound()
+                except Exception as e:  # noqa: BLE001 - a file gone or broken since
+                    studio.log('studio: %s %s: %s' % (kind, n, e))
+                    raise web.HTTPNotFound(text=str(e))
+            return web.Response(body=cache[n], content_type='application/octet-stream'
+                                if kind == 'shape' else 'image/png')
+        return get
+
     app.router.add_get('/', index)
     app.router.add_get('/favicon.ico', favicon)
     app.router.add_get('/ws', ws_handler)
     app.router.add_post('/api/cmd', cmd)
     app.router.add_get('/api/scene', scene)
+    app.router.add_get('/shape/{n}', asset('shape'))
+    app.router.add_get('/texture/{n}', asset('texture'))
     app.router.add_static('/static/', STATIC)
     if os.path.isdir(THREE):
         app.router.add_static('/three/', THREE)

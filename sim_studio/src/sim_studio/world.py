@@ -32,6 +32,9 @@ class WorldLink(object):
         self._proxies = {}
         self._lock = threading.Lock()
         self.subs = []
+        self.articulated = set()      # models whose links move against each other
+        self._links_raw = None        # the latest /gazebo/link_states, undecoded
+        self._links = (None, {})      # (the raw message they came from, decoded poses)
 
     def start(self):
         from rosgraph_msgs.msg import Clock
@@ -44,6 +47,12 @@ class WorldLink(object):
             rospy.Subscriber(self.camera_topic, Image, self._on_image, queue_size=1,
                              buff_size=2 ** 24),
         ]
+        if self.articulated:
+            # undecoded (rospy.AnyMsg): decoded at most at the pose stream's rate, and only
+            # while some model has joints that move (the world publishes link_states only
+            # while somebody subscribes)
+            self.subs.append(rospy.Subscriber('/gazebo/link_states', rospy.AnyMsg,
+                                              self._on_links, queue_size=1))
 
     def close(self):
         for s in self.subs:
@@ -58,6 +67,29 @@ class WorldLink(object):
     def _on_states(self, msg):
         self.states = msg
         self.states_seq += 1
+
+    def _on_links(self, msg):
+        self._links_raw = msg
+
+    def link_poses(self):
+        """{model: {link: [x, y, z, qx, qy, qz, qw]}} in the world of the articulated
+        models' links, from the latest /gazebo/link_states ({} before the first)."""
+        raw = self._links_raw
+        if raw is None:
+            return {}
+        if self._links[0] is raw:
+            return self._links[1]
+        from mobile_device_sim.msg import LinkStates
+        msg = LinkStates().deserialize(raw._buff)
+        out = {}
+        for n, p in zip(msg.name, msg.pose):
+            model, _, link = n.partition('::')
+            if model in self.articulated:
+                out.setdefault(model, {})[link] = [round(v, 6) for v in (
+                    p.position.x, p.position.y, p.position.z, p.orientation.x,
+                    p.orientation.y, p.orientation.z, p.orientation.w)]
+        self._links = (raw, out)
+        return out
 
     def _on_image(self, msg):
         self.image = msg

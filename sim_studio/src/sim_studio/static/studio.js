@@ -8,7 +8,7 @@
   const studio = window.studio = {
     frames: 0, firstFrameAt: null, poses: {}, models: {}, selected: 'mobile_device',
     dragging: false, replies: {}, cameraFrames: 0, ready: false, displays: {},
-    device: {}, hist: {}, deviceMessages: 0,
+    device: {}, hist: {}, deviceMessages: 0, links: {},
   };
   let ws = null, nextId = 1;
   const pending = {};
@@ -64,6 +64,80 @@
     return new THREE.BoxBufferGeometry(0.05, 0.05, 0.05);
   }
 
+  // a mesh (or a textured shape): its bounding box until the renderer's own triangles
+  // arrive from the studio (/shape/N: a JSON header, then positions, normals, uvs)
+  studio.shapes = [];
+  studio.shapeBoxes = false;
+  function shapeVisual(g, mat) {
+    const grp = new THREE.Group();
+    const box = new THREE.Mesh(new THREE.BoxBufferGeometry(
+      Math.max(g.size[0], 1e-3), Math.max(g.size[1], 1e-3), Math.max(g.size[2], 1e-3)), mat);
+    box.position.set(g.center[0], g.center[1], g.center[2]);
+    grp.add(box);
+    const rec = {url: g.url, box: box, mesh: null};
+    studio.shapes.push(rec);
+    fetch(g.url).then((r) => {
+      if (!r.ok) throw new Error('HTTP ' + r.status);
+      return r.arrayBuffer();
+    }).then((buf) => {
+      const n = new DataView(buf).getUint32(0, true);
+      const head = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
+      const c = head.count;
+      let off = 4 + n;
+      const geo = new THREE.BufferGeometry();
+      geo.setAttribute('position', new THREE.BufferAttribute(new Float32Array(buf, off, 3 * c), 3));
+      off += 12 * c;
+      geo.setAttribute('normal', new THREE.BufferAttribute(new Float32Array(buf, off, 3 * c), 3));
+      off += 12 * c;
+      geo.setAttribute('uv', new THREE.BufferAttribute(new Float32Array(buf, off, 2 * c), 2));
+      const mats = head.parts.map((p, i) => {
+        geo.addGroup(p.first, p.count, i);
+        const m = new THREE.MeshLambertMaterial({
+          color: new THREE.Color(p.rgba[0], p.rgba[1], p.rgba[2]), transparent: p.rgba[3] < 1,
+          opacity: p.rgba[3], side: head.double ? THREE.DoubleSide : THREE.FrontSide});
+        if (p.texture) {
+          m.map = new THREE.TextureLoader().load(p.texture);
+          m.map.flipY = false;             // t = 0 is the image's top row, as the renderer has it
+        }
+        return m;
+      });
+      rec.mesh = new THREE.Mesh(geo, mats);
+      grp.add(rec.mesh);
+      showShapeBoxes(studio.shapeBoxes);
+      studio.shapesLoaded = (studio.shapesLoaded || 0) + 1;
+    }).catch((e) => { $('status').textContent = 'cannot load ' + g.url + ': ' + e; });
+    return grp;
+  }
+  // draw the shapes' bounding boxes instead of their triangles (true) or not
+  function showShapeBoxes(on) {
+    studio.shapeBoxes = on;
+    for (const r of studio.shapes) {
+      if (!r.mesh) continue;
+      r.mesh.visible = !on;
+      r.box.visible = on;
+    }
+  }
+  studio.showShapeBoxes = showShapeBoxes;
+  // look at a model from (dx, dy, dz) away
+  studio.lookAt = function (name, d) {
+    const obj = studio.models[name];
+    if (!obj) return false;
+    const p = obj.getWorldPosition(new THREE.Vector3());
+    d = d || [0, -0.9, 0.6];
+    orbit.target.copy(p);
+    camera.position.set(p.x + d[0], p.y + d[1], p.z + d[2]);
+    orbit.update();
+    return true;
+  };
+  // where a model's origin (or a link's) is on the screen
+  studio.screenPoint = function (name, link) {
+    let obj = studio.models[name];
+    if (obj && link) obj = obj.getObjectByName(link) || obj;
+    const p = obj.getWorldPosition(new THREE.Vector3()).project(camera);
+    const rect = canvas.getBoundingClientRect();
+    return {x: rect.left + (p.x + 1) / 2 * rect.width, y: rect.top + (1 - p.y) / 2 * rect.height};
+  };
+
   function setPose(obj, p) {
     obj.position.set(p.position[0], p.position[1], p.position[2]);
     obj.quaternion.set(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
@@ -78,12 +152,14 @@
       let drawn = 0;
       for (const ln of m.links) {
         const lg = new THREE.Group();
+        lg.name = ln.name;
         setPose(lg, ln.pose);
         for (const v of ln.visuals) {
           const mat = new THREE.MeshLambertMaterial({
             color: new THREE.Color(v.rgba[0], v.rgba[1], v.rgba[2]),
             transparent: v.rgba[3] < 1, opacity: v.rgba[3], side: THREE.DoubleSide});
-          const mesh = new THREE.Mesh(geometry(v.geometry), mat);
+          const mesh = v.geometry.kind === 'shape' ? shapeVisual(v.geometry, mat) :
+            new THREE.Mesh(geometry(v.geometry), mat);
           setPose(mesh, v.origin);
           lg.add(mesh);
           drawn++;
@@ -275,6 +351,8 @@
             y: rect.top + (1 - p.y) / 2 * rect.height};
   };
 
+  const inv = new THREE.Matrix4(), m4 = new THREE.Matrix4(), v3 = new THREE.Vector3();
+  const q4 = new THREE.Quaternion(), one = new THREE.Vector3(1, 1, 1);
   function frame() {
     resize();
     for (const name in studio.poses) {
@@ -283,6 +361,18 @@
       const p = studio.poses[name];
       obj.position.set(p[0], p[1], p[2]);
       obj.quaternion.set(p[3], p[4], p[5], p[6]);
+      const links = studio.links[name];
+      if (links) {                 // jointed: each link where /gazebo/link_states has it
+        obj.updateMatrixWorld();
+        inv.getInverse(obj.matrixWorld);
+        for (const ln of obj.children) {
+          const q = links[ln.name];
+          if (!q) continue;
+          m4.compose(v3.set(q[0], q[1], q[2]), q4.set(q[3], q[4], q[5], q[6]), one);
+          m4.premultiply(inv);
+          m4.decompose(ln.position, ln.quaternion, ln.scale);
+        }
+      }
     }
     orbit.update();
     renderer.render(scene, camera);
@@ -321,6 +411,7 @@
         if (r) r(m); else showError(m);
       } else if (m.type === 'poses') {
         studio.poses = m.poses;
+        studio.links = m.links || {};
         if (studio.ready && !studio.asking &&
             Object.keys(m.poses).some((n) => !studio.models[n])) {
           studio.asking = true;          // a model spawned since: its description

@@ -106,9 +106,12 @@ def test_the_held_phone_is_carried_regripped_and_let_go(engine, caplog):
     e = make_engine(engine, gravity=(0, 0, -9.81))
     try:
         arm_holding_phone(e)
-        # set_model_configuration: the phone is carried along at once, at rest
+        # set_model_configuration: the phone is carried along at once, at rest, by the same
+        # joint (a kinematic controller moves the arm every step: nothing is remade)
+        native = e._attached.items[0].native
         e.set_joint_positions('xarm6', {'joint1': 1.0})
         assert offset_error(e)[0] < 1e-9
+        assert e._attached.items[0].native is native
         # teleporting the held phone holds it again where it is put
         put = e.link_pose('xarm6', 'link6') * Pose([0.0, 0.1, 0.05])
         e.set_model_pose('phone', put)

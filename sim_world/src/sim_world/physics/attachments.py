@@ -116,18 +116,22 @@ class Attachments(object):
             self.items.remove(att)
             self.engine._unfix(att)
 
-    def moved(self, name):
+    def moved(self, name, via=None):
         """Model ``name`` was moved without physics: carry what it holds along (at the
-        stored offset, at rest), and hold it again where it is now if it is held."""
+        stored offset, at rest; the joint's relative pose still holds, nothing is remade:
+        a kinematic controller moves the arm every step), and hold it again where it is now
+        if it is held (``via``: the attachment that carried it here)."""
         if self._moving or not self.items:
             return
         e = self.engine
+        carried = []
         self._moving = True
         try:
             for att in list(self.items):
+                if att is via:
+                    continue
                 if att.model1 == name:
-                    rec2 = e._get(att.model2)
-                    if rec2.static:
+                    if e._get(att.model2).static:
                         # a static held side cannot be carried: the holder is held there
                         self._refix(att)
                         continue
@@ -136,14 +140,13 @@ class Attachments(object):
                     off = root.inverse() * e.link_pose(att.model2, att.link2)
                     e.set_model_pose(att.model2, held * off.inverse())
                     e.set_model_twist(att.model2, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-                    self._refix(att)
-                    self._moving = False
-                    self.moved(att.model2)       # what the held model holds in turn
-                    self._moving = True
+                    carried.append(att)
                 elif att.model2 == name:
                     self._refix(att)
         finally:
             self._moving = False
+        for att in carried:
+            self.moved(att.model2, via=att)      # what the held model holds in turn
 
     def _refix(self, att):
         e = self.engine

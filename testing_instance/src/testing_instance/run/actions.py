@@ -341,13 +341,8 @@ class SpawnModel(Action):
 
     def apply(self, h, t0):
         ev = self.ev
-        # a xacro argument naming a pybullet_data:// file gets its path (a wrapper that
-        # includes one of pybullet's robots)
-        args = dict((k, h.sc.resolve(v) if isinstance(v, str) and
-                     v.startswith('pybullet_data://') else v)
-                    for k, v in (ev.get('args') or {}).items()) or None
         h.spawn(ev['name'], h.sc.resolve(ev['file']), ev.get('position', [0, 0, 0]),
-                ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), args, ev)
+                ev.get('rpy', [0, 0, 0]), ev.get('namespace', ''), ev.get('args'), ev)
 
 
 class DeleteModel(Action):

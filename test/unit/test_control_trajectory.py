@@ -14,8 +14,7 @@ import pytest
 
 from sim_world.control.ros_api import ControllerManagerRos
 from sim_world.control.trajectory import (GOAL_TOLERANCE_VIOLATED, INVALID_GOAL,
-                                          INVALID_JOINTS, PATH_TOLERANCE_VIOLATED, SUCCESSFUL,
-                                          Point, Trajectory)
+                                          INVALID_JOINTS, PATH_TOLERANCE_VIOLATED, SUCCESSFUL)
 from sim_world.physics import ENGINES
 from sim_world.world import World
 
@@ -122,8 +121,7 @@ def follow(w, plugin, api, via, seconds=4.6):
         api.goal_cb('arm', gh)
     else:
         api.trajectory_cb('arm', trajectory_msg())
-    t0 = w.sim_time                    # applied at the next step's update, which starts it
-    w.step(1)
+    w.step(1)                          # applied at this step's update, which starts it
     t0 = w.sim_time
     actual, ref = [], []
     for _ in range(int(round(seconds / w.step_size / 10))):
@@ -226,22 +224,26 @@ def test_bad_goals_are_rejected_with_ros_controllers_error_codes(caplog):
         w.shutdown()
 
 
+def pendulum_api(physics, iface, store):
+    """test_control's pendulum with a transmission on its hinge; (world, api) over ``store``."""
+    from test_control import pendulum, with_control
+    w = World(physics=physics, seed=1)
+    w.add_model(with_control(pendulum(), iface, 'hinge'))
+    plugin = [p for p in w.find_plugins('pend')
+              if p.spec.filename == 'libgazebo_ros_control.so'][0]
+    return w, ControllerManagerRos(plugin, serve=False, get_param=store.get)
+
+
 def test_path_and_goal_tolerances_abort_as_ros_controllers_does():
     """An effort trajectory controller on a pendulum too weak to follow: the goal's
     path_tolerance aborts it (PATH_TOLERANCE_VIOLATED); with no path tolerance, the goal
     tolerance after goal_time does (GOAL_TOLERANCE_VIOLATED)."""
     from mobile_device_sim.msg import JointTolerance
-    import rospy
-    from test_control import pendulum, with_control
-    w = World(physics='ode', seed=1)
+    w, api = pendulum_api('ode', 'EffortJointInterface', {'/weak': {
+        'type': 'effort_controllers/JointTrajectoryController', 'joints': ['hinge'],
+        'gains': {'hinge': {'p': 2.0, 'd': 0.1}},
+        'constraints': {'goal_time': 0.3, 'hinge': {'goal': 0.01}}}})
     try:
-        w.add_model(with_control(pendulum(), 'EffortJointInterface', 'hinge'))
-        plugin = [p for p in w.find_plugins('pend')
-                  if p.spec.filename == 'libgazebo_ros_control.so'][0]
-        store = {'/weak': {'type': 'effort_controllers/JointTrajectoryController',
-                           'joints': ['hinge'], 'gains': {'hinge': {'p': 2.0, 'd': 0.1}},
-                           'constraints': {'goal_time': 0.3, 'hinge': {'goal': 0.01}}}}
-        api = ControllerManagerRos(plugin, serve=False, get_param=store.get)
         load_and_start(api, 'weak')
         gh = FakeGoalHandle(goal_msg(trajectory_msg([(1.0, [1.0])], ['hinge']),
                                      path_tolerance=[JointTolerance(name='hinge',
@@ -257,24 +259,16 @@ def test_path_and_goal_tolerances_abort_as_ros_controllers_does():
         assert gh.events == ['accepted'], gh.events
         w.step(400)
         assert gh.events[1][:2] == ('aborted', GOAL_TOLERANCE_VIOLATED)
-        assert rospy is not None
     finally:
         w.shutdown()
 
 
 def test_effort_trajectory_controller_tracks_with_its_gains():
-    from test_control import pendulum, with_control
-    w = World(physics='bullet', seed=1)
+    w, api = pendulum_api('bullet', 'EffortJointInterface', {'/arm': {
+        'type': 'effort_controllers/JointTrajectoryController', 'joints': ['hinge'],
+        'gains': {'hinge': {'p': 200.0, 'i': 50.0, 'd': 20.0, 'i_clamp': 5.0}},
+        'constraints': {'goal_time': 1.0, 'hinge': {'goal': 0.01}}}})
     try:
-        w.add_model(with_control(pendulum(), 'EffortJointInterface', 'hinge'))
-        plugin = [p for p in w.find_plugins('pend')
-                  if p.spec.filename == 'libgazebo_ros_control.so'][0]
-        store = {'/arm': {'type': 'effort_controllers/JointTrajectoryController',
-                          'joints': ['hinge'],
-                          'gains': {'hinge': {'p': 200.0, 'i': 50.0, 'd': 20.0,
-                                              'i_clamp': 5.0}},
-                          'constraints': {'goal_time': 1.0, 'hinge': {'goal': 0.01}}}}
-        api = ControllerManagerRos(plugin, serve=False, get_param=store.get)
         load_and_start(api, 'arm')
         gh = FakeGoalHandle(goal_msg(trajectory_msg([(1.0, [0.5]), (2.0, [0.8])], ['hinge'])))
         api.goal_cb('arm', gh)
@@ -336,15 +330,9 @@ def test_controller_manager_services_answer_as_controller_manager(caplog):
 
 def test_group_controllers_take_float64multiarray_commands(caplog):
     from std_msgs.msg import Float64MultiArray
-    from test_control import pendulum, with_control
-    w = World(physics='ode', seed=1)
+    w, api = pendulum_api('ode', 'PositionJointInterface', {'/g': {
+        'type': 'position_controllers/JointGroupPositionController', 'joints': ['hinge']}})
     try:
-        w.add_model(with_control(pendulum(), 'PositionJointInterface', 'hinge'))
-        plugin = [p for p in w.find_plugins('pend')
-                  if p.spec.filename == 'libgazebo_ros_control.so'][0]
-        store = {'/g': {'type': 'position_controllers/JointGroupPositionController',
-                        'joints': ['hinge']}}
-        api = ControllerManagerRos(plugin, serve=False, get_param=store.get)
         load_and_start(api, 'g')
         api.command_cb('g', Float64MultiArray(data=[0.7]))
         w.step(10)

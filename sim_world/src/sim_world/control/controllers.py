@@ -86,6 +86,7 @@ class Controller(object):
     TYPE = ''
     INTERFACE = None          # the joint interface it claims (None: reads only)
     GROUP = False             # its command is a Float64MultiArray (one value per joint)
+    MULTI = False             # it takes ``joints`` (a list), not ``joint``
     #: controller_manager's state: 'initialized' (loaded), 'running', 'stopped'
     state = 'initialized'
 
@@ -94,7 +95,9 @@ class Controller(object):
         self.hw = hw
         self.running = False
         where = name
-        if self.INTERFACE is not None:
+        if self.MULTI:
+            self.joints = self.joints_param(params)
+        elif self.INTERFACE is not None:
             joint = params.get('joint')
             if joint is None or not isinstance(joint, str) or not joint:
                 raise ControllerError('%s/joint is missing (the joint to control)' % where)
@@ -111,6 +114,18 @@ class Controller(object):
             raise ControllerError('%s: joint %r has no %s interface (it has: %s)'
                                   % (where, joint, _IFACE_NAMES[self.INTERFACE],
                                      ', '.join(_IFACE_NAMES[k] for k in sorted(have[joint]))))
+
+    def joints_param(self, params):
+        """``joints``: a non-empty list of distinct joints with this controller's interface."""
+        joints = params.get('joints')
+        if not isinstance(joints, (list, tuple)) or not joints or \
+                not all(isinstance(j, str) and j for j in joints):
+            raise ControllerError('%s/joints is missing (a list of joint names)' % self.name)
+        if len(set(joints)) != len(joints):
+            raise ControllerError('%s/joints names a joint twice: %s' % (self.name, list(joints)))
+        for j in joints:
+            self.check_joint(j, '%s/joints' % self.name)
+        return list(joints)
 
     @property
     def joint(self):
@@ -262,17 +277,7 @@ class EffortVelocityController(_CommandController):
 class _GroupController(Controller):
     """A controller of several joints (``joints``) with one Float64MultiArray command."""
     GROUP = True
-
-    def __init__(self, name, params, hw):
-        self.name, self.hw, self.running = name, hw, False
-        joints = params.get('joints')
-        if not isinstance(joints, (list, tuple)) or not joints or \
-                not all(isinstance(j, str) and j for j in joints):
-            raise ControllerError('%s/joints is missing (a list of joint names)' % name)
-        for j in joints:
-            self.check_joint(j, '%s/joints' % name)
-        self.joints = list(joints)
-        self.load(params)
+    MULTI = True
 
     def set_command(self, values):
         vals = [float(v) for v in values]

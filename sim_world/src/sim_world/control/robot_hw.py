@@ -9,8 +9,9 @@ ignored, as DefaultRobotHWSim does), read and commanded through the world's phys
   command every write and held there through the step by its velocity-0 motor (its friction
   raised to ``KINEMATIC_HOLD`` while the interface is claimed, put back on release), so
   gravity does not make it sag or swing between commands (it is set again when it is
-  more than ``KINEMATIC_TOLERANCE`` off); the other joints keep their velocities. Its velocity reads the commanded motion (the change of command over the time
-  between writes), zero when held;
+  more than ``KINEMATIC_TOLERANCE`` off); the other joints keep their velocities. Its
+  velocity reads the commanded motion (the change of command over the time between
+  writes), zero when held;
 - velocity: the joint's velocity set to the command every step.
 
 Not a plugin module: the world seam has no joint commands, so this adapter (like joint_api)

@@ -200,19 +200,7 @@ class JointTrajectoryController(Controller):
     """Base of the two hardware variants (``POSITION`` / ``EFFORT`` below)."""
     TYPE = ''
     INTERFACE = None
-
-    def __init__(self, name, params, hw):
-        self.name, self.hw, self.running = name, hw, False
-        joints = params.get('joints')
-        if not isinstance(joints, (list, tuple)) or not joints or \
-                not all(isinstance(j, str) and j for j in joints):
-            raise ControllerError('%s/joints is missing (a list of joint names)' % name)
-        if len(set(joints)) != len(joints):
-            raise ControllerError('%s/joints names a joint twice: %s' % (name, list(joints)))
-        for j in joints:
-            self.check_joint(j, '%s/joints' % name)
-        self.joints = list(joints)
-        self.load(params)
+    MULTI = True
 
     def load(self, params):
         n = self.name

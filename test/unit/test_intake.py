@@ -205,8 +205,8 @@ def test_a_slices_messages_go_to_the_file_in_one_order_whichever_thread_came_fir
     """Messages of different topics at one sim time reach the intake in whatever order the
     subscriber threads run (an app's answer, a latched topic, a world node's messages over
     sockets): the recording is the same file, byte for byte, for every such order. What
-    came in is written at the end of the slice handshake (stamp_held), by time, then
-    topic, then arrival within a topic."""
+    came in is written at the end of the slice handshake (stamp_held, then the Recorder's
+    flush), by time, then topic, then arrival within a topic."""
     def world(t):
         return lambda: _from(_imu(t), '/sim_world')
 
@@ -232,7 +232,8 @@ def test_a_slices_messages_go_to_the_file_in_one_order_whichever_thread_came_fir
         for topic in order:
             it.on_message(left[topic].pop(0)(), topic)
         rec.event(0.5, 'event', id='go', action='walk')
-        it.stamp_held(0.5)        # the handshake's end: the slice is written
+        it.stamp_held(0.5)        # the handshake's end (Runner.answered): the slice is
+        rec.flush()               # timed and written
         assert rec.close() == []
         files.append([open(p, 'rb').read() for p in paths])
     assert files[0] == files[1]

@@ -265,10 +265,9 @@ class Intake(object):
 
     def stamp_held(self, t_end, apps_later=False):
         """Time the held messages at the end of the slice handshake of the slice that ended
-        at sim time ``t_end``, and record them; the slice's messages are all in: the
-        recording writes them (Recorder.flush: in an order that does not depend on which
-        thread got there first). ``apps_later`` (a replay of a pipelined run): the apps'
-        messages wait for the next slice's end, as live."""
+        at sim time ``t_end``, and record them (the Recorder writes the slice at its
+        ``flush``, which the runner calls next). ``apps_later`` (a replay of a pipelined
+        run): the apps' messages wait for the next slice's end, as live."""
         def time_of(topic, tag):
             return self._time_held(topic, tag, t_end)
         later = (lambda topic, tag: tag is None) if apps_later else None
@@ -277,7 +276,6 @@ class Intake(object):
                 self.say('  debug: %s at %.3f' % (topic, t))
             if self.recorder.active:
                 self.recorder.write(topic, msg, t)
-        self.recorder.flush()
 
     def _time_held(self, topic, tag, t_end):
         """The time of a held message: an input's (the world's, live; the recording's, in a

@@ -8,8 +8,8 @@ types) that a replay reads first.
 
 The file's order is the same in every run of a scenario and seed, whatever way it is run
 (embedded, with a world node, attached, loaded, replayed): the messages wait in the
-Recorder until the end of the slice handshake that completes them (``flush``: the runner's
-intake calls it once the slice's unstamped messages are timed) and go to the file in
+Recorder until the end of the slice handshake that completes them (``flush``: the runner
+calls it once the slice's unstamped messages are timed) and go to the file in
 ``recording_order``: by recorded time, then topic, then arrival within the topic. Written
 as they arrived, messages of different topics at one sim time were in the order their
 threads happened to run: an app's answer, a latched topic, a replayed input and every

@@ -277,10 +277,12 @@ class Runner(object):
     def answered(self, w0):
         """The end of a slice handshake begun at wall time ``w0``, live or replayed (the
         clock's handshake): the apps have answered (appwatch), the held unstamped messages
-        are timed."""
+        are timed; then the slice's messages, all in now, go to the recording (in its one
+        order: recording.Recorder.flush; not counted as waiting)."""
         self.apps.wait_answered(self.inbox.wake)
         self.stamp_held()
         self.sync_wall += time.monotonic() - w0
+        self.recorder.flush()
 
     def _world_nodes(self):
         """[(name, pid)] of a world node of its own, for the app watch: one handling an input

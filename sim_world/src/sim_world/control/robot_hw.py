@@ -96,6 +96,7 @@ class RobotHWSim(object):
         self._pending = {}        # joint -> (kind, value) of this step
         self._held = {}           # joint -> its own friction, while commanded kinematically
         self._kin = {}            # joint -> (sim time, position commanded, velocity read)
+        self._seen = {}           # joint -> (sim time, position) a controller read
 
     def all_joints(self):
         return [j for j in self.physics.joint_names(self.model)
@@ -113,6 +114,7 @@ class RobotHWSim(object):
 
     def state(self, joint):
         q, v = self.physics.joint_state(self.model, joint)
+        self._seen[joint] = (self.world.sim_time, q)   # nothing moves it until the write
         k = self._kin.get(joint)
         if k is not None:
             v = k[2]
@@ -129,7 +131,14 @@ class RobotHWSim(object):
             self.physics.set_joint_dynamics(self.model, joint, friction=self._held.pop(joint))
         self.physics.clear_joint_efforts(self.model, joint, key=KEY)
 
+    def _now_at(self, joint, seen, now):
+        """The joint's position now: as a controller read it in this update, else read."""
+        s = seen.get(joint)
+        return s[1] if s is not None and s[0] == now else \
+            self.physics.joint_state(self.model, joint)[0]
+
     def write(self):
+        seen, self._seen = self._seen, {}
         if not self._pending:
             return
         ph, m = self.physics, self.model
@@ -157,7 +166,7 @@ class RobotHWSim(object):
             # kinematic move costs a forward kinematics pass of the whole model; Bullet's
             # motor holds a joint within 1e-6 rad for several steps, ODE's for none)
             positions = dict((j, q) for j, q in positions.items()
-                             if abs(ph.joint_state(m, j)[0] - q) > KINEMATIC_TOLERANCE)
+                             if abs(self._now_at(j, seen, now) - q) > KINEMATIC_TOLERANCE)
         if positions:
             keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
                         if j not in positions)

@@ -33,6 +33,7 @@ Goals come through a handle (the ROS side's actionlib goal handle, or a test's r
 (``submit_goal``, ``submit_command``, ``submit_cancel``) and applied at the next update, in
 the world's step, so a lockstep run applies them at a known step.
 """
+import bisect
 import collections
 import math
 import threading
@@ -118,13 +119,11 @@ class Segment(object):
 def find_segment(segments, t):
     """Index of the segment active at ``t`` (the last one starting at or before it; the
     first one before every start)."""
-    i = 0
-    for k, s in enumerate(segments):
-        if s.t0 <= t:
-            i = k
-        else:
-            break
-    return i
+    return max(0, bisect.bisect_right(segments, t, key=_start) - 1)
+
+
+def _start(segment):
+    return segment.t0
 
 
 class Point(object):

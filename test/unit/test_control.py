@@ -246,3 +246,20 @@ def test_manager_core_needs_no_world_and_clamps_the_setpoint_to_the_limits():
     m.update(0.001, 0.001)
     assert hw.sent == [('effort', pytest.approx(3.0))]
     assert not m.set_command('c', float('nan'))[0]
+
+
+def test_a_controller_that_fails_is_stopped_and_frees_its_joint(caplog):
+    hw = FakeHW()
+    m = ControllerManager(hw)
+    assert m.spawn('c', {'type': 'effort_controllers/JointEffortController', 'joint': 'j'})[0]
+    c = m.controllers['c']
+
+    def broken(t, dt):
+        raise RuntimeError('boom')
+    c.update = broken
+    with caplog.at_level(logging.ERROR):
+        m.update(0.001, 0.001)
+    assert 'controller c failed at t=0.001 (RuntimeError: boom); stopped' in caplog.text
+    assert m.list_controllers() == [('c', 'effort_controllers/JointEffortController',
+                                     'stopped', ['j'])] and c.state == 'stopped'
+    assert m.spawn('d', {'type': 'effort_controllers/JointEffortController', 'joint': 'j'})[0]

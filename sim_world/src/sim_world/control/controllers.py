@@ -486,6 +486,9 @@ class ControllerManager(object):
                 self.log.error('controller_manager: controller %s failed at t=%.3f (%s: %s); '
                                'stopped', n, t, type(e).__name__, e)
                 c.running = False
+                c.state = 'stopped'
+                for j in c.claimed():
+                    self.hw.release(j)
         self.hw.write()
 
     def _refuse(self, msg):

@@ -400,9 +400,11 @@ def test_the_device_panel_shows_the_phones_sensor_values(studio, page):
         list(fields) + ['/mobile_device/fix', '/mobile_device/wifi/scan']), timeout=60000)
     print('device values after %.1f s' % (time.monotonic() - t0))
     assert page.evaluate("studio.send({op: 'pause'}).then((r) => r.ok)")
+    print('paused after %.1f s' % (time.monotonic() - t0))
     time.sleep(1.0)                  # the last messages reach the probe and the studio
     n = page.evaluate('studio.deviceMessages')
     page.wait_for_function('studio.deviceMessages > %d + 1' % n, timeout=10000)
+    print('values settled after %.1f s' % (time.monotonic() - t0))
     for topic, names in fields.items():
         want = probe(studio, 'latest %s %s' % (topic, ' '.join(names)))
         assert want is not None, 'the probe got nothing on ' + topic
@@ -470,6 +472,86 @@ def _rest_world_pose(model, link):
     from sim_studio.server import _compose
     p = model['pose']
     return _compose(list(p['position']) + list(p['orientation']), link['pose'])
+
+
+def grid(px, rows=10, cols=6):
+    """Mean grey level of rows x cols cells of an image, standardised."""
+    g = px.mean(axis=2)
+    h, w = g.shape
+    cells = np.array([[g[r * h // rows:(r + 1) * h // rows, c * w // cols:(c + 1) * w // cols]
+                       .mean() for c in range(cols)] for r in range(rows)])
+    return (cells - cells.mean()) / (cells.std() + 1e-9)
+
+
+def test_the_view_through_the_phone_camera_sees_what_the_camera_sees(studio, page):
+    assert page.evaluate("studio.send({op: 'pause'}).then((r) => r.ok)")
+    time.sleep(0.5)                  # the camera's last image reaches the page
+    cam = png_pixels(data_url(page, "(() => { const i = document.querySelector("
+                                    "'[data-testid=camera-view]'); const c = document."
+                                    "createElement('canvas'); c.width = i.naturalWidth; "
+                                    "c.height = i.naturalHeight; c.getContext('2d')."
+                                    "drawImage(i, 0, 0); return c; })()"))
+    page.evaluate("studio.handle.visible = false")
+    free = viewport_pixels(page)
+    page.get_by_test_id('view-mode').select_option('camera')
+    view = viewport_pixels(page)
+    page.get_by_test_id('view-mode').select_option('free')
+    page.evaluate("studio.handle.visible = true")
+    # the view has the camera's vertical field of view: its middle, as wide as the image's
+    # aspect makes it, is the camera's picture
+    h, w = view.shape[:2]
+    cw = int(round(h * cam.shape[1] / cam.shape[0]))
+    crop = lambda px: px[:, (w - cw) // 2:(w + cw) // 2]          # noqa: E731
+    through = float((grid(crop(view)) * grid(cam)).mean())
+    other = float((grid(crop(free)) * grid(cam)).mean())
+    print('correlation with the camera image: through it %.2f, free view %.2f'
+          % (through, other))
+    assert through > 0.6 and through > other + 0.2, (through, other)
+
+
+def test_the_follow_view_keeps_its_distance_to_the_moving_phone(studio, page):
+    page.get_by_test_id('view-mode').select_option('follow')
+    offset = ("(() => studio.camera.position.clone().sub("
+              "studio.models.mobile_device.position).toArray())()")
+    before = page.evaluate(offset)
+    pos, _q = model_state(studio)
+    to = [pos[0] + 0.3, pos[1] + 0.1, pos[2]]
+    code, rep = post(studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
+                                         'position': to}))
+    assert code == 200, rep
+    page.wait_for_function('Math.abs(studio.models.mobile_device.position.x - %r) < 1e-4'
+                           % to[0], timeout=30000)
+    viewport_pixels(page)
+    after = page.evaluate(offset)
+    code, rep = post(studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
+                                         'position': pos}))
+    page.get_by_test_id('view-mode').select_option('free')
+    assert np.allclose(before, after, atol=1e-3), (before, after)
+
+
+def test_assert_mode_turns_a_clicked_value_into_an_expectation(studio, page):
+    page.get_by_test_id('assert').click()
+    cell = page.locator('[data-testid=device-value][data-topic="/mobile_device/magnetic"]'
+                        '[data-field="magnetic_field.z"]')
+    value = float(cell.text_content())
+    cell.click()
+    form = page.get_by_test_id('assert-form')
+    assert form.is_visible()
+    form.locator('select[name=check]').select_option('near')
+    page.get_by_test_id('assert-add').click()
+    page.wait_for_function("document.querySelector('[data-testid=scenario-yaml]').value"
+                           ".includes('magnetic_field.z')", timeout=30000)
+    page.get_by_test_id('assert').click()
+    yaml = page.get_by_test_id('scenario-yaml').input_value()
+    line = [ln for ln in yaml.splitlines() if 'magnetic_field.z' in ln][0]
+    m = re.search(r'topic: /mobile_device/magnetic, field: magnetic_field.z, '
+                  r'eventually: \{near: ([-\de.]+), tol: ([-\de.]+)\}', line)
+    assert m, line
+    assert abs(float(m.group(1)) - value) <= 1e-6 * abs(value) + 1e-12
+    assert abs(float(m.group(2)) - 0.1 * abs(value)) <= 0.01 * abs(value)
+    rep = page.evaluate("studio.send({op: 'check', yaml: document.querySelector("
+                        "'[data-testid=scenario-yaml]').value})")
+    assert rep['ok'] and rep['problems'] == [], rep
 
 
 def test_drag_the_handle_record_and_run(studio, page):

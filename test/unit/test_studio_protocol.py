@@ -32,6 +32,9 @@ class FakeWorld(object):
     def link_poses(self):
         return {}
 
+    def poll_links(self):
+        pass
+
     def set_pose(self, *a):
         self.calls.append(('set_pose',) + a)
 
@@ -351,3 +354,43 @@ def test_a_touch_on_a_model_without_a_known_display_is_one_error():
     rep = run(s.handle_text(cmd(op='touch', model='desk', x=0.5, y=0.5)))
     assert not rep['ok'] and 'no touch display of model desk' in rep['error']
     assert 'mobile_device' in rep['error'] and s.world.calls == []
+
+
+def test_an_expectation_becomes_an_expect_entry_the_validator_accepts():
+    s = studio()
+    rep = run(s.handle_text(cmd(op='expect', topic='/mobile_device/magnetic',
+                                field='magnetic_field.z', mode='eventually', check='near',
+                                target=-4.4e-05, tol=4e-06)))
+    assert rep['ok'], rep
+    rep = run(s.handle_text(cmd(op='expect', topic='/mobile_device/magnetic',
+                                field='magnetic_field.z', mode='always', check='between',
+                                lo=-1, hi=1, start=0, end=2)))
+    y = rep['yaml']
+    assert ('- {name: magnetic_field_z, topic: /mobile_device/magnetic, field: '
+            'magnetic_field.z, eventually: {near: -4.4e-05, tol: 4.0e-06}}') in y, y
+    assert ('- {name: magnetic_field_z_2, topic: /mobile_device/magnetic, field: '
+            'magnetic_field.z, always: {between: [-1, 1]}, window: [0, 2]}') in y, y
+    assert 'duration: 2' in y
+    assert check(y) == [], check(y)
+    from testing_instance.scenario.format import loads
+    sc = loads(y, 'studio.yaml')
+    assert sc is not None
+    import yaml
+    e = yaml.safe_load(y)['expect'][0]
+    assert e['eventually'] == {'near': -4.4e-05, 'tol': 4e-06}
+
+
+@pytest.mark.parametrize('fields, words', [
+    (dict(check='near', target=1.0), 'near needs the field tol'),
+    (dict(check='equals'), 'equals needs the field target'),
+    (dict(check='between', lo=2, hi=1), 'lo <= hi'),
+    (dict(check='equals', target=1, start=1), 'both start and end'),
+    (dict(check='equals', target=1, start=2, end=1), 'start < end'),
+    (dict(check='about', target=1), 'expected one of equals, near, between'),
+])
+def test_bad_expectations_are_named(fields, words):
+    s = studio()
+    rep = run(s.handle_text(cmd(op='expect', topic='/t', field='data', mode='always',
+                                **fields)))
+    assert not rep['ok'] and words in rep['error'], rep
+    assert s.recorder.expects == []

@@ -126,7 +126,9 @@ def main(argv=None):
         assets = Assets()
         models = _scene_models(rospy, assets)
         world = WorldLink(rospy, a.camera_topic)
-        world.articulated = {m['name'] for m in models if m.get('articulated')}
+        world.articulated = {m['name']: [ln['name'] for ln in m['links']
+                                         if ln['name'] != 'world']
+                             for m in models if m.get('articulated')}
         world.start()
         studio = Studio(world, models, rate=a.rate, camera_rate=a.camera_rate, assets=assets,
                         token=token, run_dir=run_dir,

@@ -16,6 +16,8 @@ MAX_BYTES = 256 * 1024          # a command's text (a scenario to run included)
 
 BUTTONS = ('power', 'volume_up', 'volume_down')
 FAULTS = ('none', 'drop', 'freeze', 'noise', 'no_fix')
+MODES = ('always', 'eventually')
+CHECKS = ('equals', 'near', 'between')
 
 # field kinds: 'str', 'num', 'num>0', 'num>=0', 'unit' (0..1), 'vec3', 'bool', 'values'
 # (name -> number), a tuple of allowed strings
@@ -42,10 +44,16 @@ OPS = {
                "stream (true) or stop streaming (false) the phones' sensor values to this "
                'client; replies with the values now'),
     'check': ({'yaml': 'str'}, {}, False, "validate a scenario (run_scenario --check's errors)"),
+    'expect': ({'topic': 'str', 'field': 'str', 'mode': MODES, 'check': CHECKS},
+               {'target': None, 'tol': None, 'lo': None, 'hi': None, 'start': None,
+                'end': None, 'name': None}, False,
+               "add an expectation to the recording's scenario: field of topic, always or "
+               'eventually, equals target, near target +- tol, or between lo and hi, in the '
+               'window [start, end] s (default: the whole run)'),
     'run': ({'yaml': 'str'}, {}, False, 'run a scenario with run_scenario; its verdicts'),
 }
 #: ops that need control (they change the world or the recording)
-WORLD_OPS = frozenset(op for op, spec in OPS.items() if spec[2]) | {'record', 'run'}
+WORLD_OPS = frozenset(op for op, spec in OPS.items() if spec[2]) | {'record', 'run', 'expect'}
 #: ops that take a model that must be in the world
 MODEL_OPS = ('set_pose', 'touch', 'press_button', 'fault')
 
@@ -122,7 +130,24 @@ def _show(v):
     return text if len(text) <= 80 else text[:77] + '...'
 
 
-_OPT_KINDS = {'rpy': 'vec3', 'model': 'str', 'duration': 'num>0', 'value': 'num>=0'}
+_OPT_KINDS = {'rpy': 'vec3', 'model': 'str', 'duration': 'num>0', 'value': 'num>=0',
+              'target': 'num', 'tol': 'num>=0', 'lo': 'num', 'hi': 'num', 'start': 'num>=0',
+              'end': 'num>0', 'name': 'str'}
+
+
+def _check_expect(f):
+    """The fields an expectation's check needs, and a window that is one."""
+    need = {'equals': ('target',), 'near': ('target', 'tol'), 'between': ('lo', 'hi')}
+    for k in need[f['check']]:
+        if f[k] is None:
+            raise ProtocolError('expect: %s needs the field %s' % (f['check'], k))
+    if f['check'] == 'between' and f['lo'] > f['hi']:
+        raise ProtocolError('expect: between needs lo <= hi, got %g > %g' % (f['lo'], f['hi']))
+    if (f['start'] is None) != (f['end'] is None):
+        raise ProtocolError('expect: a window needs both start and end')
+    if f['start'] is not None and not f['start'] < f['end']:
+        raise ProtocolError('expect: the window needs start < end, got [%g, %g]'
+                            % (f['start'], f['end']))
 
 
 def check(obj, models=None):
@@ -153,6 +178,8 @@ def check(obj, models=None):
         fields[k] = _kind(kind, obj[k], '%s.%s' % (op, k))
     for k, default in opt.items():
         fields[k] = _kind(_OPT_KINDS[k], obj[k], '%s.%s' % (op, k)) if k in obj else default
+    if op == 'expect':
+        _check_expect(fields)
     if models is not None and op in MODEL_OPS and fields['model'] not in models:
         raise ProtocolError('%s.model: no model %s in the world (models: %s)'
                             % (op, _show(fields['model']), ', '.join(sorted(models))))

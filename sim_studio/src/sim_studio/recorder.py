@@ -24,6 +24,11 @@ def _num(v):
     v = float(v)
     if v == int(v) and abs(v) < 1e15:
         return '%d' % v if v == 0 or abs(v) >= 1 else '%g' % v
+    if abs(v) < 0.01:            # small values (a magnetic field in tesla): 7 digits
+        mant, _, exp = ('%.7g' % v).partition('e')
+        if '.' not in mant:
+            mant += '.0'         # YAML 1.1 reads 1e-05 as a string, 1.0e-05 as a number
+        return mant + ('e' + exp if exp else '')
     return ('%.6f' % v).rstrip('0').rstrip('.')
 
 
@@ -49,12 +54,14 @@ class Recorder(object):
         self.on = False
         self.t0 = 0.0
         self.actions = []        # [(at, action dict)] in the order carried out
+        self.expects = []        # expectation entries (assert mode)
 
     def start(self, sim_time):
         """Recording on from ``sim_time`` (a new recording: the old actions go)."""
         self.on = True
         self.t0 = float(sim_time)
         self.actions = []
+        self.expects = []
 
     def stop(self):
         self.on = False
@@ -96,8 +103,27 @@ class Recorder(object):
         self.actions.append(entry)
         return entry
 
+    def expect(self, f):
+        """Add the expectation of an ``expect`` command's fields; returns its entry."""
+        base = re.sub(r'\W+', '_', f['field']).strip('_') or 'value'
+        names = {e['name'] for e in self.expects}
+        name = f['name'] or base
+        i = 1
+        while name in names:
+            i += 1
+            name = '%s_%d' % (f['name'] or base, i)
+        check = {'equals': {'equals': f['target']},
+                 'near': {'near': f['target'], 'tol': f['tol']},
+                 'between': {'between': [f['lo'], f['hi']]}}[f['check']]
+        e = {'name': name, 'topic': f['topic'], 'field': f['field'], f['mode']: check}
+        if f['start'] is not None:
+            e['window'] = [f['start'], f['end']]
+        self.expects.append(e)
+        return e
+
     def duration(self):
-        last = max([e['at'] for e in self.actions] or [0.0])
+        last = max([e['at'] for e in self.actions] +
+                   [e['window'][1] - MARGIN for e in self.expects if 'window' in e] or [0.0])
         return round(last + MARGIN, 3)
 
     def yaml(self):
@@ -115,7 +141,11 @@ class Recorder(object):
             lines += ['  - %s' % _flow(e) for e in self.actions]
         else:
             lines.append('timeline: []')
-        lines.append('expect: []')
+        if self.expects:
+            lines.append('expect:')
+            lines += ['  - %s' % _flow(e) for e in self.expects]
+        else:
+            lines.append('expect: []')
         return '\n'.join(lines) + '\n'
 
 

@@ -2,7 +2,7 @@
 planes; meshes and textured shapes as the renderer's own triangles, served by ``Assets``),
 read with sim_world's own loaders (sdf.load_world_file for the world file, urdf.parse_urdf
 for a spawned model's description), the link poses at the model's rest pose (its joints at
-zero: the stream moves them to /gazebo/link_states), and the phones' touch displays."""
+zero: the stream moves them to /gazebo/get_link_state's poses), and the phones' touch displays."""
 import logging
 
 import numpy as np
@@ -176,6 +176,29 @@ def describe_model(model, assets=None):
     display = display_of(model)
     if display is not None:
         out['display'] = display
+    cams = cameras_of(model)
+    if cams:
+        out['cameras'] = cams
+    return out
+
+
+def cameras_of(model):
+    """The camera sensors of ``model``: [{'link' (the sensor looks along its +x, z up, as
+    Gazebo's cameras do), 'hfov' (rad), 'width', 'height' (px)}]."""
+    out = []
+    for spec in model.plugins:
+        if spec.sensor_type != 'camera' or spec.sensor is None or spec.link is None:
+            continue
+
+        def num(path, default):
+            el = spec.sensor.find(path)
+            try:
+                return float(el.text) if el is not None and el.text else default
+            except ValueError:
+                return default
+        out.append({'link': spec.link, 'hfov': num('camera/horizontal_fov', 1.047),
+                    'width': int(num('camera/image/width', 320)),
+                    'height': int(num('camera/image/height', 240))})
     return out
 
 

@@ -135,6 +135,10 @@ class Studio(object):
                 return protocol.reply(cmd, scene=self.scene())
             if cmd.op == 'device':
                 return protocol.reply(cmd, **(await self._device_op(cmd['on'], client)))
+            if cmd.op == 'expect':
+                entry = self.recorder.expect(cmd.fields)
+                self._tell_recording()
+                return protocol.reply(cmd, expect=entry, yaml=self.recorder.yaml())
             if cmd.op == 'check':
                 return protocol.reply(cmd, problems=check_yaml(cmd['yaml']))
             if cmd.op == 'record':
@@ -314,6 +318,7 @@ class Studio(object):
             self._health_at = time.monotonic()
             await loop.run_in_executor(None, self.check_world)
         if self.clients:
+            await loop.run_in_executor(None, self.world.poll_links)
             msg = self.poses_message()
             for c in self.clients:
                 c.put('poses', msg)

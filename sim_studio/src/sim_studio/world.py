@@ -32,9 +32,10 @@ class WorldLink(object):
         self._proxies = {}
         self._lock = threading.Lock()
         self.subs = []
-        self.articulated = set()      # models whose links move against each other
-        self._links_raw = None        # the latest /gazebo/link_states, undecoded
-        self._links = (None, {})      # (the raw message they came from, decoded poses)
+        self.articulated = {}         # model -> its links that move against each other
+        self._links = {}              # model -> {link: [x, y, z, qx, qy, qz, qw]}
+        self._links_at = 0.0
+        self.links_rate = 20.0        # Hz at most of asking for the links' poses
 
     def start(self):
         from rosgraph_msgs.msg import Clock
@@ -47,12 +48,6 @@ class WorldLink(object):
             rospy.Subscriber(self.camera_topic, Image, self._on_image, queue_size=1,
                              buff_size=2 ** 24),
         ]
-        if self.articulated:
-            # undecoded (rospy.AnyMsg): decoded at most at the pose stream's rate, and only
-            # while some model has joints that move (the world publishes link_states only
-            # while somebody subscribes)
-            self.subs.append(rospy.Subscriber('/gazebo/link_states', rospy.AnyMsg,
-                                              self._on_links, queue_size=1))
 
     def close(self):
         for s in self.subs:
@@ -68,28 +63,33 @@ class WorldLink(object):
         self.states = msg
         self.states_seq += 1
 
-    def _on_links(self, msg):
-        self._links_raw = msg
-
     def link_poses(self):
         """{model: {link: [x, y, z, qx, qy, qz, qw]}} in the world of the articulated
-        models' links, from the latest /gazebo/link_states ({} before the first)."""
-        raw = self._links_raw
-        if raw is None:
-            return {}
-        if self._links[0] is raw:
-            return self._links[1]
-        from mobile_device_sim.msg import LinkStates
-        msg = LinkStates().deserialize(raw._buff)
+        models' links, as last asked with ``poll_links`` ({} before)."""
+        return self._links
+
+    def poll_links(self):
+        """Ask /gazebo/get_link_state for each link of the articulated models, at most
+        ``links_rate`` times a second (one short call per moving link: the world's
+        /gazebo/link_states would make it gather every link of every model 100 times a
+        second, which costs it more than the whole office's physics)."""
+        if not self.articulated or time.monotonic() - self._links_at < 1.0 / self.links_rate:
+            return
+        self._links_at = time.monotonic()
+        from mobile_device_sim.srv import GetLinkState
         out = {}
-        for n, p in zip(msg.name, msg.pose):
-            model, _, link = n.partition('::')
-            if model in self.articulated:
+        for model, links in sorted(self.articulated.items()):
+            for link in links:
+                try:
+                    res = self._call('/gazebo/get_link_state', GetLinkState,
+                                     '%s::%s' % (model, link), '')
+                except WorldError:
+                    continue           # a model deleted since; the next poll tries again
+                p = res.link_state.pose
                 out.setdefault(model, {})[link] = [round(v, 6) for v in (
                     p.position.x, p.position.y, p.position.z, p.orientation.x,
                     p.orientation.y, p.orientation.z, p.orientation.w)]
-        self._links = (raw, out)
-        return out
+        self._links = out
 
     def _on_image(self, msg):
         self.image = msg

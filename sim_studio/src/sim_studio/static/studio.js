@@ -8,7 +8,7 @@
   const studio = window.studio = {
     frames: 0, firstFrameAt: null, poses: {}, models: {}, selected: 'mobile_device',
     dragging: false, replies: {}, cameraFrames: 0, ready: false, displays: {},
-    device: {}, hist: {}, deviceMessages: 0, links: {},
+    device: {}, hist: {}, deviceMessages: 0, links: {}, cameras: {}, view: 'free',
   };
   let ws = null, nextId = 1;
   const pending = {};
@@ -146,6 +146,7 @@
   function build(sceneDesc) {
     for (const m of sceneDesc.models) {
       if (m.display && !studio.displays[m.name]) studio.displays[m.name] = m.display;
+      if (m.cameras && !studio.cameras[m.name]) studio.cameras[m.name] = m.cameras;
       if (studio.models[m.name]) continue;
       const root = new THREE.Group();
       root.name = m.name;
@@ -217,6 +218,43 @@
     studio.lastTouch = {model: name, x: x, y: y};
     send({op: 'touch', model: name, x: x, y: y}).then(showError);
   });
+
+  // -- assert mode: a click on a device value becomes an expectation of the scenario -------
+  studio.asserting = false;
+  $('assert').onclick = () => {
+    studio.asserting = !studio.asserting;
+    $('assert').classList.toggle('on', studio.asserting);
+    document.body.classList.toggle('asserting', studio.asserting);
+    if (!studio.asserting) $('assertform').hidden = true;
+  };
+  $('device').addEventListener('click', (e) => {
+    const cell = e.target.closest('td.v');
+    if (!studio.asserting || !cell) return;
+    const v = parseFloat(cell.textContent);
+    const f = $('assertform');
+    f.dataset.topic = cell.dataset.topic;
+    f.dataset.field = cell.dataset.field;
+    $('a-what').textContent = cell.dataset.topic + ' ' + cell.dataset.field;
+    f.elements.a.value = isFinite(v) ? v : '';
+    f.elements.b.value = isFinite(v) ? parseFloat((Math.abs(v) * 0.1 || 0.1).toPrecision(3)) : '';
+    f.hidden = false;
+  });
+  $('a-cancel').onclick = () => { $('assertform').hidden = true; };
+  $('assertform').onsubmit = (e) => {
+    e.preventDefault();
+    const f = e.target, el = f.elements, a = parseFloat(el.a.value), b = parseFloat(el.b.value);
+    const cmd = {op: 'expect', topic: f.dataset.topic, field: f.dataset.field,
+                 mode: el.mode.value, check: el.check.value, target: a};
+    if (el.check.value === 'near') cmd.tol = b;
+    if (el.check.value === 'between') { cmd.target = undefined; cmd.lo = a; cmd.hi = b; }
+    send(JSON.parse(JSON.stringify(cmd))).then((rep) => {
+      showError(rep);
+      if (rep.ok) {
+        $('yaml').value = rep.yaml;
+        f.hidden = true;
+      }
+    });
+  };
 
   // -- the device panel: each topic's latest values and a plot over sim time ------------------
   const COLORS = ['#f66', '#6d6', '#69f', '#fc4'];
@@ -351,6 +389,54 @@
             y: rect.top + (1 - p.y) / 2 * rect.height};
   };
 
+  // -- view modes: free (orbit), follow the selected model, through the phone's camera ------
+  // a Gazebo camera looks along its link's +x with +z up; a three.js camera along -z, +y up
+  const CAM_FIX = new THREE.Matrix4().makeBasis(new THREE.Vector3(0, -1, 0),
+    new THREE.Vector3(0, 0, 1), new THREE.Vector3(-1, 0, 0));
+  function phoneCamera() {
+    const name = studio.cameras[studio.selected] ? studio.selected :
+      Object.keys(studio.cameras)[0];
+    const c = name && studio.cameras[name][0];
+    const obj = c && studio.models[name] && studio.models[name].getObjectByName(c.link);
+    return obj ? {obj: obj, desc: c} : null;
+  }
+  function setView(mode) {
+    studio.view = mode;
+    $('view').value = mode;
+    studio.followAt = null;
+    orbit.enabled = mode !== 'camera';
+    if (mode !== 'camera' && camera.fov !== 50) {
+      camera.fov = 50;
+      camera.updateProjectionMatrix();
+      studio.lookAt(studio.selected);
+    }
+  }
+  studio.setView = setView;
+  $('view').addEventListener('change', (e) => setView(e.target.value));
+  function applyView() {
+    const obj = studio.models[studio.selected];
+    if (studio.view === 'follow' && obj) {
+      const p = obj.getWorldPosition(new THREE.Vector3());
+      if (studio.followAt) {
+        const d = p.clone().sub(studio.followAt);
+        camera.position.add(d);
+        orbit.target.add(d);
+      }
+      studio.followAt = p;
+    } else if (studio.view === 'camera') {
+      const c = phoneCamera();
+      if (!c) return;
+      c.obj.updateMatrixWorld(true);
+      m4.multiplyMatrices(c.obj.matrixWorld, CAM_FIX);
+      m4.decompose(camera.position, camera.quaternion, v3);
+      const fov = 2 * Math.atan(Math.tan(c.desc.hfov / 2) * c.desc.height / c.desc.width);
+      if (Math.abs(camera.fov - fov * 180 / Math.PI) > 1e-6) {
+        camera.fov = fov * 180 / Math.PI;       // the sensor's vertical field of view
+        camera.updateProjectionMatrix();
+      }
+    }
+  }
+
   const inv = new THREE.Matrix4(), m4 = new THREE.Matrix4(), v3 = new THREE.Vector3();
   const q4 = new THREE.Quaternion(), one = new THREE.Vector3(1, 1, 1);
   function frame() {
@@ -374,7 +460,8 @@
         }
       }
     }
-    orbit.update();
+    applyView();
+    if (studio.view !== 'camera') orbit.update();
     renderer.render(scene, camera);
     if (studio.ready) {
       studio.frames++;

@@ -46,6 +46,10 @@ PARAM_FMAX = 5
 __all__ = ['OdeEngine']
 
 MAX_CONTACTS = 16
+#: m or quaternion component: a root body this close to where it was at the last
+#: set_joint_positions with the same joint values gets the same body poses (a welded arm's
+#: root moves ~1e-15 per step, a kinematic hold sets the same pose every step)
+FK_CACHE_TOLERANCE = 1e-9
 
 
 def _ode_rand():
@@ -67,6 +71,81 @@ _RAND_GET, _RAND_SET = _ode_rand()
 
 def _wxyz(q):
     return (float(q[3]), float(q[0]), float(q[1]), float(q[2]))
+
+
+def _fk_consts(art):
+    """Per group, as plain float tuples: (parent, origin p, origin q, kind, unit axis, com p,
+    com q, com_inv p, com_inv q); kind 'rot', 'slide', 'general' (a joint frame: through
+    sim_world.model.joint_motion) or None (fixed / root)."""
+    out = []
+    for g in art.groups:
+        j = g.joint
+        kind, axis = None, (0.0, 0.0, 0.0)
+        if j is not None and j.movable:
+            f = j.frame
+            if np.any(f.p) or f.q[3] != 1.0:
+                kind = 'general'
+            elif j.type == 'prismatic':
+                kind, axis = 'slide', tuple(float(v) for v in j.axis)
+            else:
+                a = j.axis / max(np.linalg.norm(j.axis), 1e-12)
+                kind, axis = 'rot', tuple(float(v) for v in a)
+        ci = g.com_inv
+        out.append((g.parent, tuple(g.origin.p.tolist()), tuple(g.origin.q.tolist()), kind,
+                    axis, tuple(g.spec.com.p.tolist()), tuple(g.spec.com.q.tolist()),
+                    tuple(ci.p.tolist()), tuple(ci.q.tolist())))
+    return out
+
+
+def _compose(ap, aq, bp, bq):
+    """Pose a * pose b in plain floats (transforms.Pose.__mul__ without its arrays)."""
+    x, y, z, w = aq
+    vx, vy, vz = bp
+    bx, by, bz, bw = bq
+    qx = w * bx + x * bw + y * bz - z * by
+    qy = w * by - x * bz + y * bw + z * bx
+    qz = w * bz + x * by - y * bx + z * bw
+    qw = w * bw - x * bx - y * by - z * bz
+    n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    return ((ap[0] + (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy
+             + 2 * (x * z + y * w) * vz,
+             ap[1] + 2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy
+             + 2 * (y * z - x * w) * vz,
+             ap[2] + 2 * (x * z - y * w) * vx + 2 * (y * z + x * w) * vy
+             + (1 - 2 * (x * x + y * y)) * vz),
+            (qx / n, qy / n, qz / n, qw / n))
+
+
+def _body_poses(art, root_p, root_q, positions):
+    """(position, wxyz quaternion) of every group's body (its centre of mass) with the root
+    body at (root_p, root_q xyzw) and the joints at ``positions`` ({name: value}, missing:
+    0): articulation.forward in plain floats (a kinematic set costs this every step)."""
+    from ..model import joint_motion
+    consts = getattr(art, '_fk_consts', None)
+    if consts is None:
+        consts = art._fk_consts = _fk_consts(art)
+    frames, out = [], []
+    for g, (parent, op, oq, kind, axis, cp, cq, cip, ciq) in zip(art.groups, consts):
+        if parent is None:
+            fp, fq = _compose(root_p, root_q, cip, ciq)      # root link frame
+        else:
+            fp, fq = _compose(*(frames[parent] + (op, oq)))
+            q = positions.get(g.joint.name, 0.0) if kind is not None else 0.0
+            if q:
+                if kind == 'rot':
+                    s = math.sin(q / 2.0)
+                    fp, fq = _compose(fp, fq, (0.0, 0.0, 0.0),
+                                      (axis[0] * s, axis[1] * s, axis[2] * s, math.cos(q / 2.0)))
+                elif kind == 'slide':
+                    fp, fq = _compose(fp, fq, (axis[0] * q, axis[1] * q, axis[2] * q),
+                                      (0.0, 0.0, 0.0, 1.0))
+                else:
+                    m = joint_motion(g.joint, q)
+                    fp, fq = _compose(fp, fq, tuple(m.p.tolist()), tuple(m.q.tolist()))
+        frames.append((fp, fq))
+        bp, bq = _compose(fp, fq, cp, cq)
+        out.append((bp, (bq[3], bq[0], bq[1], bq[2])))
+    return out
 
 
 class OdeEngine(PhysicsEngine):
@@ -250,13 +329,21 @@ class OdeEngine(PhysicsEngine):
 
     def _set_joint_positions(self, rec, positions):
         art = rec.art
-        root = self._group_pose(rec, 0) * art.groups[0].com_inv
-        frames = forward(art, root, positions)
-        for gi, g in enumerate(art.groups):
+        b0 = art.groups[0].native
+        w, x, y, z = b0.getQuaternion()
+        root = b0.getPosition() + (w, x, y, z)
+        q = tuple(positions.get(jn, 0.0) for jn in art.order)
+        cache = rec.native.get('fk')
+        if cache is not None and cache[1] == q and \
+                max(abs(a - b) for a, b in zip(cache[0], root)) < FK_CACHE_TOLERANCE:
+            poses = cache[2]          # a held pose: the same command as the last set
+        else:
+            poses = _body_poses(art, root[:3], (x, y, z, w), positions)
+            rec.native['fk'] = (root, q, poses)
+        for g, (bp, bq) in zip(art.groups, poses):
             b = g.native
-            bp = frames[gi] * g.spec.com
-            b.setPosition(tuple(bp.p))
-            b.setQuaternion(_wxyz(bp.q))
+            b.setPosition(bp)
+            b.setQuaternion(bq)
             b.setLinearVel((0.0, 0.0, 0.0))
             b.setAngularVel((0.0, 0.0, 0.0))
             b.enable()

@@ -7,9 +7,11 @@ ignored, as DefaultRobotHWSim does), read and commanded through the world's phys
   next step (the physics then truncates it as Gazebo's CheckAndTruncateForce);
 - position: kinematic, as DefaultRobotHWSim without PID gains: the joint is set to the
   command every write and held there through the step by its velocity-0 motor (its friction
-  raised to ``KINEMATIC_HOLD`` while the interface is claimed, put back on release), so
-  gravity does not make it sag or swing between commands (it is set again when it is
-  more than ``KINEMATIC_TOLERANCE`` off); the other joints keep their velocities. Its
+  raised to ``KINEMATIC_HOLD`` and its damping 0 while the interface is claimed, both put
+  back on release), so gravity does not make it sag or swing between commands (it is set
+  again when it is more than ``KINEMATIC_TOLERANCE`` off: a forward-kinematics pass of the
+  model, which ODE reuses while the command stays the same); the other joints keep their
+  velocities. Its
   velocity reads the commanded motion (the change of command over the time between
   writes), zero when held;
 - velocity: the joint's velocity set to the command every step.
@@ -94,13 +96,16 @@ class RobotHWSim(object):
             self.interfaces.setdefault(tr.joint, set()).update(tr.interfaces)
         self.efforts = {}         # joint -> last effort sent (after the clamp)
         self._pending = {}        # joint -> (kind, value) of this step
-        self._held = {}           # joint -> its own friction, while commanded kinematically
+        self._held = {}           # joint -> its own (damping, friction), while kinematic
         self._kin = {}            # joint -> (sim time, position commanded, velocity read)
         self._seen = {}           # joint -> (sim time, position) a controller read
+        self._movable = None      # all_joints()
 
     def all_joints(self):
-        return [j for j in self.physics.joint_names(self.model)
-                if self.physics.joint(self.model, j).type in MOVABLE]
+        if self._movable is None:      # the model's joints do not change while it lives
+            self._movable = [j for j in self.physics.joint_names(self.model)
+                             if self.physics.joint(self.model, j).type in MOVABLE]
+        return list(self._movable)
 
     def joint_type(self, joint):
         return self.physics.joint(self.model, joint).type
@@ -128,7 +133,9 @@ class RobotHWSim(object):
         self.efforts.pop(joint, None)
         self._kin.pop(joint, None)
         if joint in self._held and self.physics.has_model(self.model):
-            self.physics.set_joint_dynamics(self.model, joint, friction=self._held.pop(joint))
+            damping, friction = self._held.pop(joint)
+            self.physics.set_joint_dynamics(self.model, joint, damping=damping,
+                                            friction=friction)
         self.physics.clear_joint_efforts(self.model, joint, key=KEY)
 
     def _now_at(self, joint, seen, now):
@@ -157,8 +164,11 @@ class RobotHWSim(object):
             now = self.world.sim_time
             for j, q in positions.items():
                 if j not in self._held:
-                    self._held[j] = self.physics.joint(m, j).friction
-                    ph.set_joint_dynamics(m, j, friction=KINEMATIC_HOLD)
+                    jj = self.physics.joint(m, j)
+                    self._held[j] = (jj.damping, jj.friction)
+                    # no damping while held: the hold motor's force does not need it, and
+                    # the model then costs no per-step motor update
+                    ph.set_joint_dynamics(m, j, damping=0.0, friction=KINEMATIC_HOLD)
                 k = self._kin.get(j)
                 v = (q - k[1]) / (now - k[0]) if k is not None and now > k[0] else 0.0
                 self._kin[j] = (now, q, v)
@@ -169,7 +179,8 @@ class RobotHWSim(object):
                              if abs(self._now_at(j, seen, now) - q) > KINEMATIC_TOLERANCE)
         if positions:
             keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
-                        if j not in positions)
+                        if j not in positions) if len(positions) < len(self.all_joints()) \
+                else {}
             ph.set_joint_positions(m, positions)
             for j, v in keep.items():
                 if v:

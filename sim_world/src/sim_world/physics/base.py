@@ -647,9 +647,10 @@ class PhysicsEngine(object):
         from .articulation import check_positions
         rec = self._art(name)
         positions = check_positions(rec.art, name, positions)
-        full = dict((jn, self._joint_pos_vel(rec, js)[0])
-                    for jn, js in rec.art.joints.items() if js.movable)
-        full.update(positions)
+        full = dict(positions)
+        for jn, js in rec.art.joints.items():
+            if js.movable and jn not in full:
+                full[jn] = self._joint_pos_vel(rec, js)[0]
         self.pose_version += 1
         self._set_joint_positions(rec, full)
         if self._attached.items:

@@ -357,10 +357,10 @@ class BulletEngine(PhysicsEngine):
 
     def _set_joint_positions(self, rec, positions):
         bid, c = rec.native['body'], self._c
-        for jn, js in rec.art.joints.items():
-            if js.movable:
-                p.resetJointState(bid, rec.art.groups[js.group].native,
-                                  float(positions.get(jn, 0.0)), 0.0, physicsClientId=c)
+        groups = rec.art.groups
+        for js in rec.art.moving:
+            p.resetJointState(bid, groups[js.group].native,
+                              float(positions.get(js.name, 0.0)), 0.0, physicsClientId=c)
         p.resetBaseVelocity(bid, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
         self._contacts_valid = False
 

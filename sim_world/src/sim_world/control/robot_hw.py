@@ -172,11 +172,14 @@ class RobotHWSim(object):
                 k = self._kin.get(j)
                 v = (q - k[1]) / (now - k[0]) if k is not None and now > k[0] else 0.0
                 self._kin[j] = (now, q, v)
-            # teleport only what is off its command by more than KINEMATIC_TOLERANCE (a
-            # kinematic move costs a forward kinematics pass of the whole model; Bullet's
-            # motor holds a joint within 1e-6 rad for several steps, ODE's for none)
-            positions = dict((j, q) for j, q in positions.items()
-                             if abs(self._now_at(j, seen, now) - q) > KINEMATIC_TOLERANCE)
+            # teleport only when a joint is off its command by more than
+            # KINEMATIC_TOLERANCE (a kinematic move costs a forward kinematics pass of the
+            # whole model; Bullet's motor holds a joint within 1e-6 rad for several steps,
+            # ODE's for none), and then every kinematic joint to its command: the same
+            # joint values every step of a hold (ODE reuses the pass for them)
+            if not any(abs(self._now_at(j, seen, now) - q) > KINEMATIC_TOLERANCE
+                       for j, q in positions.items()):
+                positions = {}
         if positions:
             keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
                         if j not in positions) if len(positions) < len(self.all_joints()) \

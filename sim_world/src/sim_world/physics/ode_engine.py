@@ -251,7 +251,9 @@ class OdeEngine(PhysicsEngine):
             if js.movable:
                 self._apply_friction(rec, js)
         rec.native = {'body': bodies[0], 'bodies': bodies, 'geoms': geoms, 'joints': joints,
-                      'weld': weld}
+                      'weld': weld, 'weld_at': None}
+        if weld is not None:       # where the weld holds the root body (see _root_at)
+            rec.native['weld_at'] = bodies[0].getPosition() + bodies[0].getQuaternion()
         for geom, _, _ in geoms:
             self._geom_model[geom] = rec.name
             self._seq_next += 1
@@ -330,8 +332,10 @@ class OdeEngine(PhysicsEngine):
     def _set_joint_positions(self, rec, positions):
         art = rec.art
         b0 = art.groups[0].native
-        w, x, y, z = b0.getQuaternion()
-        root = b0.getPosition() + (w, x, y, z)
+        # a welded root goes back where it was welded (quickStep's weld is soft: it wanders
+        # ~1e-6 m per step under a moving arm, and setting it where it is would keep that)
+        root = rec.native['weld_at'] or b0.getPosition() + b0.getQuaternion()
+        w, x, y, z = root[3:]
         q = tuple(positions.get(jn, 0.0) for jn in art.order)
         cache = rec.native.get('fk')
         if cache is not None and cache[1] == q and \
@@ -519,6 +523,8 @@ class OdeEngine(PhysicsEngine):
                 b.enable()
             if rec.native['weld'] is not None:
                 rec.native['weld'].setFixed()
+                b0 = rec.native['body']
+                rec.native['weld_at'] = b0.getPosition() + b0.getQuaternion()
             self._dirty = True
             return
         b = rec.native['body']

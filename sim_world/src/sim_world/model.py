@@ -553,18 +553,20 @@ class Model(object):
 
     def resolve_paths(self):
         """Make every mesh and texture reference an absolute file path (idempotent)."""
+        packs = {}          # one rospkg.RosPack for the model: one walk of ROS_PACKAGE_PATH
         for link in self.links.values():
             for v in link.visuals:
                 if v.geometry.kind == 'mesh':
-                    v.geometry.filename = self.resolve_path(v.geometry.filename)
+                    v.geometry.filename = self.resolve_path(v.geometry.filename, packs)
                 if v.material.texture:
-                    v.material.texture = self.resolve_path(v.material.texture)
+                    v.material.texture = self.resolve_path(v.material.texture, packs)
             for c in link.collisions:
                 if c.geometry.kind == 'mesh':
-                    c.geometry.filename = self.resolve_path(c.geometry.filename)
+                    c.geometry.filename = self.resolve_path(c.geometry.filename, packs)
 
-    def resolve_path(self, path):
-        """Absolute path of a mesh/texture reference (file://, package://, relative)."""
+    def resolve_path(self, path, packs=None):
+        """Absolute path of a mesh/texture reference (file://, package://, relative).
+        ``packs``: a dict to keep the rospkg.RosPack in across calls (its package walk)."""
         if path is None:
             return None
         if path.startswith('file://'):
@@ -573,7 +575,10 @@ class Model(object):
             pkg, _, rest = path[len('package://'):].partition('/')
             try:
                 import rospkg
-                return os.path.join(rospkg.RosPack().get_path(pkg), rest)
+                packs = {} if packs is None else packs
+                if 'rospack' not in packs:
+                    packs['rospack'] = rospkg.RosPack()
+                return os.path.join(packs['rospack'].get_path(pkg), rest)
             except Exception:  # noqa: BLE001 - rospkg raises various errors
                 return os.path.join(self.base_dir, rest)
         if path.startswith('model://'):

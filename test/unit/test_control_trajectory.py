@@ -157,9 +157,9 @@ def test_xarm6_follows_a_3_point_goal_by_action_alike_on_both_engines():
     assert float(np.sqrt(np.mean((a - b) ** 2))) < 0.01
 
 
-@pytest.mark.parametrize('physics', ENGINES)
-def test_xarm6_follows_the_goal_sent_on_the_command_topic(physics):
-    w, plugin, api = xarm_world(physics)
+def test_xarm6_follows_the_goal_sent_on_the_command_topic():
+    # the topic's handler; the physics of the tracking is the action test's, on both engines
+    w, plugin, api = xarm_world('bullet')
     try:
         load_and_start(api, 'arm')
         actual, ref, _ = follow(w, plugin, api, 'topic')
@@ -170,22 +170,23 @@ def test_xarm6_follows_the_goal_sent_on_the_command_topic(physics):
         w.shutdown()
 
 
-@pytest.mark.parametrize('physics', ENGINES)
-def test_xarm6_holds_its_home_pose_for_60_s(physics):
-    # 60 s of sim time in 20 ms steps (3000 steps): the hold is the controller's, not the
-    # step's; the joints are read every 40 ms
+@pytest.mark.parametrize('physics,seconds', [('ode', 60.0), ('bullet', 10.0)])
+def test_xarm6_holds_its_home_pose_for_60_s(physics, seconds):
+    # 60 s of sim time in 20 ms steps (3000 steps) on ODE, whose motors alone do not hold
+    # the arm (10 s on Bullet, whose do): the hold is the controller's, not the step's; the
+    # joints are read every 40 ms
     w, plugin, api = xarm_world(physics, step=0.02)
     try:
         load_and_start(api, 'arm')
         worst_v, worst_q = 0.0, 0.0
-        for _ in range(1500):
+        for _ in range(int(round(seconds / 0.04))):
             w.step(2)
             for q, v in w.joint_states('xarm6').values():
                 worst_q, worst_v = max(worst_q, abs(q)), max(worst_v, abs(v))
         c = plugin.manager.controllers['arm']
         assert worst_v < 1e-3 and worst_q < 2e-6, (worst_v, worst_q)
         assert max(abs(v) for v in c.last_state['actual'][1]) < 1e-3
-        assert w.sim_time == pytest.approx(60.0)
+        assert w.sim_time == pytest.approx(seconds)
     finally:
         w.shutdown()
 

@@ -23,8 +23,8 @@ import time
 import pytest
 import yaml
 
-from fixtures.readme_blocks import (doc_pages, shell_blocks, runs_until_interrupted,
-                                    starts_a_world)
+from fixtures.readme_blocks import (doc_pages, leaves_the_shared_world_alone, shell_blocks,
+                                    runs_until_interrupted, starts_a_world)
 from fixtures.rosworld import office_world
 from sim_world.netutil import master_port
 
@@ -102,8 +102,26 @@ def _models(env):
     return [str(n) for n in names] if isinstance(names, list) else None
 
 
+_PAUSED = set()     # holds 'paused' while the shared world is paused (_world_running)
+
+
+def _world_running(env, running):
+    """Pause the shared world while a command that cannot reach it runs (its own master:
+    leaves_the_shared_world_alone), run it again before one that may; only on a change."""
+    if running == ('paused' not in _PAUSED):
+        return
+    srv = '/gazebo/unpause_physics' if running else '/gazebo/pause_physics'
+    r = _run_quiet(env, 'rosservice call %s' % srv)
+    assert r.returncode == 0, '%s between commands failed:\n%s' % (srv, r.stdout)
+    if running:
+        _PAUSED.discard('paused')
+    else:
+        _PAUSED.add('paused')
+
+
 def _reset(env):
     """The world as the launch made it: spawned models deleted, then reset_world."""
+    _world_running(env, True)
     keep = set(env['MDS_README_MODELS'].split())
     for name in _models(env) or []:
         if name not in keep:
@@ -252,6 +270,7 @@ def test_readme_page_commands_work_as_typed(page, world):
                 log = os.path.join(tmp, '%s_%d.log' % (page.replace('/', '_'), cmd.line))
                 ran += 1
                 env = _command_env(world, block_env, cmd)
+                _world_running(world, not leaves_the_shared_world_alone(cmd.text, ROOT))
                 if cmd.text.split()[:1] == ['roscore'] and '-p' not in cmd.text.split():
                     # roscore takes 11311 whatever ROS_MASTER_URI says: the block's port
                     cmd.text += ' -p %s' % env['ROS_MASTER_URI'].rsplit(':', 1)[1]
@@ -265,6 +284,7 @@ def test_readme_page_commands_work_as_typed(page, world):
         finally:
             for p in reversed(background):
                 _stop(p)
+    _world_running(world, True)
     print('%s: %d commands in %d blocks, %.0f s' % (page, ran, len(blocks),
                                                     time.monotonic() - t0))
     assert not failures, '%d of %d commands of %s failed:\n\n%s' % (

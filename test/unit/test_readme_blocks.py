@@ -5,8 +5,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from fixtures.readme_blocks import (doc_pages, shell_blocks, runs_until_interrupted,  # noqa: E402
-                                    starts_a_world)
+from fixtures.readme_blocks import (doc_pages, leaves_the_shared_world_alone,  # noqa: E402
+                                    shell_blocks, runs_until_interrupted, starts_a_world)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -98,6 +98,20 @@ def test_what_starts_a_world_of_its_own():
     assert not starts_a_world('roslaunch mobile_device_sim audio_device.launch', ROOT)
     assert not starts_a_world('rosrun mobile_device_sim barcode_reader', ROOT)
     assert not starts_a_world('rostopic echo /clock')
+
+
+def test_what_leaves_the_shared_world_alone():
+    """The doc test pauses its office world only for commands that cannot reach it."""
+    alone = leaves_the_shared_world_alone
+    assert alone('rosrun mobile_device_sim run_scenario testing_instance/examples/qr_code.yaml', ROOT)
+    assert alone('rosrun mobile_device_sim replay_scenario out/qr.bag', ROOT)
+    assert alone('pytest -n 2 testing_instance/examples/compass_sweep.yaml -k 90', ROOT)
+    assert alone('roslaunch mobile_device_sim office.launch', ROOT)
+    assert not alone('rosrun mobile_device_sim run_scenario x.yaml --attach', ROOT)
+    assert not alone('rostopic echo -n1 /clock', ROOT)
+    assert not alone('rosservice call /gazebo/reset_world', ROOT)
+    assert not alone('rosrun mobile_device_sim studio --attach', ROOT)
+    assert not alone('', ROOT)
 
 
 def test_the_pages_are_found_anew():

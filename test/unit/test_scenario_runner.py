@@ -184,7 +184,8 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
     r = SimpleNamespace(inbox=Inbox(), intake=SimpleNamespace(subs={'/a': 1, '/b': 1}),
                         apps=SimpleNamespace(wait_answered=lambda wake: order.append('apps')),
                         stamp_held=lambda: order.append('stamped'), sync_wall=0.0, t=0.05,
-                        sc=SimpleNamespace(slice=0.05))
+                        sc=SimpleNamespace(slice=0.05),
+                        recorder=SimpleNamespace(flush=lambda: order.append('recorded')))
     r.answered = lambda w0: Runner.answered(r, w0)
     c = clock_mod.ReplayClock([], None, None, None, '/ev', run=r)
     r.inbox.put(0.01, '/a', 'a1')
@@ -198,7 +199,8 @@ def test_a_replays_slice_waits_for_exactly_what_it_published_then_for_the_apps(m
     c.counts = {'/a': 1, '/b': 1, '/not_subscribed': 7}
     c.handshake()
     assert time.monotonic() - t0 >= 0.09
-    assert order == ['b arrives', 'apps', 'stamped']
+    # the slice goes to the recording once its held messages are timed (one order)
+    assert order == ['b arrives', 'apps', 'stamped', 'recorded']
     assert c.replayed_subs == {'/a', '/b'}
     # a topic subscribed later (it missed the earlier messages) is not counted
     r.intake.subs['/c'] = 1

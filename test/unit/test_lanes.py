@@ -1,0 +1,97 @@
+"""The suite's two lanes (fixtures/lanes.py): the rule, and a real ``pytest -n 2 --dist
+loadgroup`` over a small tree that puts every integration test on one worker and the unit
+tests and the VM test on the other."""
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+from fixtures import lanes  # noqa: E402
+
+FIXTURES = os.path.join(os.path.dirname(HERE), 'fixtures')
+
+
+def test_the_rule():
+    assert lanes.lane('test/unit/test_yuv.py::test_x') == lanes.LIGHT
+    assert lanes.lane('test/test_vm.py::test_v4l2loopback_and_image_sink_in_a_real_kernel') \
+        == lanes.LIGHT
+    assert lanes.lane('test/test_core.py::test_a') == lanes.INTEGRATION
+    assert lanes.lane('test/test_readme_commands.py::test_p[docs/unit/x.md]') == \
+        lanes.INTEGRATION
+    assert lanes.lane('test/unitary.py::t') == lanes.INTEGRATION
+
+
+def _tree(root):
+    os.makedirs(os.path.join(root, 'test', 'unit'))
+    open(os.path.join(root, 'pytest.ini'), 'w').write('[pytest]\ntestpaths = test\n')
+    open(os.path.join(root, 'test', 'conftest.py'), 'w').write(textwrap.dedent('''
+        import sys
+        sys.path.insert(0, %r)
+        import lanes
+
+        def pytest_configure(config):
+            config.pluginmanager.register(lanes, 'lanes')
+        ''' % FIXTURES))
+    body = textwrap.dedent('''
+        import json, os
+
+        def _note(name):
+            with open(os.path.join(%r, 'seen.jsonl'), 'a') as f:
+                f.write(json.dumps([name, os.environ.get('PYTEST_XDIST_WORKER')]) + '\\n')
+        ''' % root)
+    files = {'test/test_core.py': 3, 'test/test_world.py': 3, 'test/test_vm.py': 1,
+             'test/unit/test_a.py': 4, 'test/unit/test_b.py': 4}
+    for path, n in files.items():
+        tests = ''.join('def test_%d():\n    _note(%r)\n\n' % (i, '%s::%d' % (path, i))
+                        for i in range(n))
+        open(os.path.join(root, path), 'w').write(body + '\n' + tests)
+    return sum(files.values())
+
+
+def test_integration_tests_share_one_worker_and_the_light_lane_the_other(tmp_path):
+    root = str(tmp_path)
+    total = _tree(root)
+    env = dict(os.environ, PYTEST_DISABLE_PLUGIN_AUTOLOAD='1')   # only xdist: a quick start
+    env.pop('PYTEST_XDIST_WORKER', None)
+    r = subprocess.run([sys.executable, '-m', 'pytest', '-p', 'no:cacheprovider', '-q',
+                        '-p', 'xdist.plugin', '-n', '2', '--dist', 'loadgroup', 'test'], cwd=root, env=env,
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout[-3000:]
+    seen = [json.loads(l) for l in open(os.path.join(root, 'seen.jsonl'))]
+    assert len(seen) == total, seen
+    workers = {}
+    for name, worker in seen:
+        workers.setdefault(lanes.lane(name.split('::')[0] + '::t'), set()).add(worker)
+    assert len(workers[lanes.INTEGRATION]) == 1, workers
+    assert len(workers[lanes.LIGHT]) == 1, workers
+    assert workers[lanes.INTEGRATION] != workers[lanes.LIGHT], workers
+    # and in each lane in collection order
+    integ = [n for n, _ in seen if lanes.lane(n) == lanes.INTEGRATION]
+    assert integ == sorted(integ, key=lambda n: (n.split('::')[0], int(n.split('::')[1])))
+
+
+def test_without_xdist_nothing_is_marked():
+    class Item(object):
+        def __init__(self, nodeid):
+            self.nodeid, self.marks = nodeid, []
+
+        def get_closest_marker(self, name):
+            return None
+
+        def add_marker(self, mark):
+            self.marks.append(mark)
+
+    class Config(object):
+        class option(object):
+            dist = 'no'
+
+    items = [Item('test/test_core.py::t'), Item('test/unit/test_a.py::t')]
+    lanes.pytest_collection_modifyitems(None, Config(), items)
+    assert all(not it.marks for it in items)
+    Config.option.dist = 'loadgroup'
+    lanes.pytest_collection_modifyitems(None, Config(), items)
+    assert [it.marks[0].kwargs.get('name', it.marks[0].args[0]) for it in items] == \
+        [lanes.INTEGRATION, lanes.LIGHT]

@@ -18,6 +18,10 @@ from ..scenario.results import RunError
 from .appwatch import AppHung, AppWatch
 from .procs import PreApp, Proc, outbound, poll, tail
 
+#: wall s an app may leave bytes unread on its connections before the run calls it hung
+#: (the environment's MDS_APP_HANG_AFTER instead: the tests that wait it out set it small)
+HANG_AFTER = float(os.environ.get('MDS_APP_HANG_AFTER', 10.0))
+
 __all__ = ['Apps', 'python_node']
 
 
@@ -139,7 +143,8 @@ class Apps(object):
                 p = Proc(cmd, self.env(), self._log(name), cwd=self.sc.dir)
             procs.append((name, p))
         self.procs = procs
-        self.watch = AppWatch(self.procs, own_pending, warn=self.say, others=others)
+        self.watch = AppWatch(self.procs, own_pending, warn=self.say, others=others,
+                              hang_after=HANG_AFTER)
         return [p for _n, p in self.procs]
 
     def await_ready(self):

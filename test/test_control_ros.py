@@ -76,6 +76,20 @@ while rospy.Time.now() < deadline:
 out['topic'] = list(s.actual.positions)
 q = rospy.ServiceProxy('/xarm/arm/query_state', QueryTrajectoryState)(rospy.Time.now())
 out['query'] = [list(q.name), list(q.position)]
+# the e-stop (the plugin's eStopTopic): a trajectory sent while it is on moves nothing;
+# released, the controller starts again and holds where the arm is
+from std_msgs.msg import Bool
+stop = rospy.Publisher('/xarm/e_stop', Bool, queue_size=1, latch=True)
+stop.publish(Bool(True))
+rospy.sleep(1.0)
+pub.publish(traj([(0.3, [0.5] * 6)]))
+rospy.sleep(1.0)
+out['stopped'] = list(rospy.wait_for_message('/xarm/arm/state', JointTrajectoryControllerState,
+                                             20).actual.positions)
+stop.publish(Bool(False))
+rospy.sleep(1.0)
+out['released'] = list(rospy.wait_for_message('/xarm/arm/state', JointTrajectoryControllerState,
+                                              20).actual.positions)
 # SIGINT to the spawner of 'arm': it stops and unloads it
 import os, signal
 os.kill(int(os.environ['ARM_SPAWNER_PID']), signal.SIGINT)
@@ -93,6 +107,13 @@ sys.stdout.flush()
 def test_spawner_list_controllers_and_the_trajectory_action(tmp_path):
     import pybullet_data
     urdf = os.path.join(pybullet_data.getDataPath(), 'xarm', 'xarm6_robot.urdf')
+    # the arm's own plugin, with an e-stop topic as a Gazebo user adds it
+    text = open(urdf).read()
+    assert '<robotNamespace>/xarm</robotNamespace>' in text
+    urdf = str(tmp_path / 'xarm6_estop.urdf')
+    open(urdf, 'w').write(text.replace(
+        '<robotNamespace>/xarm</robotNamespace>',
+        '<robotNamespace>/xarm</robotNamespace><eStopTopic>e_stop</eStopTopic>'))
     with office_world(tmp_path, 'physics:=bullet') as env:
         p = subprocess.run(['rosrun', 'mobile_device_sim', 'spawn_model', '-urdf', '-file', urdf,
                             '-model', 'xarm6', '-x', '3', '-y', '-1'],
@@ -125,5 +146,7 @@ def test_spawner_list_controllers_and_the_trajectory_action(tmp_path):
     assert state == 5 and code == -2 and "'elbow'" in text   # REJECTED, INVALID_JOINTS
     assert max(abs(q - 0.2) for q in out['topic']) < 1e-3
     assert out['query'][0][0] == 'joint1' and out['query'][1] == [pytest.approx(0.2)] * 6
+    assert max(abs(q - 0.2) for q in out['stopped']) < 2e-3, out['stopped']
+    assert max(abs(q - 0.2) for q in out['released']) < 2e-3, out['released']
     assert 'Stopping and unloading' in log and 'Loaded controllers: arm' in log
     assert out['after'] == {'joint_state_controller': 'initialized'}

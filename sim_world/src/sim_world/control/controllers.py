@@ -476,11 +476,17 @@ class ControllerManager(object):
         self.switch_controller(stop=[n for n, c in self.controllers.items() if c.running],
                                t=t, strict=False)
 
-    def update(self, t, dt):
+    def update(self, t, dt, reset=False):
+        """One control period. ``reset`` (controller_manager's ``reset_controllers``, which
+        gazebo_ros_control sets on the update after an e-stop is released): every running
+        controller is stopped and started again first, so it holds where it is now."""
         for n, c in list(self.controllers.items()):
             if not c.running:
                 continue
             try:
+                if reset:
+                    c.stopping()
+                    c.starting(t)
                 c.update(t, dt)
             except Exception as e:  # noqa: BLE001 - one failing controller stops, not all
                 self.log.error('controller_manager: controller %s failed at t=%.3f (%s: %s); '

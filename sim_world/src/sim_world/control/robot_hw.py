@@ -14,12 +14,24 @@ ignored, as DefaultRobotHWSim does), read and commanded through the world's phys
   velocities. Its
   velocity reads the commanded motion (the change of command over the time between
   writes), zero when held;
-- velocity: the joint's velocity set to the command every step.
+- velocity: the joint's velocity set to the command every step;
+- position or velocity with PID gains (``<ns>/gazebo_ros_control/pid_gains/<joint>``: ``p``,
+  ``i``, ``d``, ``i_clamp``, as DefaultRobotHWSim's POSITION_PID and VELOCITY_PID): the
+  joint is driven by an effort, control_toolbox's PID of the position error (the shortest
+  angle for a continuous joint) or the velocity error over the time since the last write,
+  clamped to the effort limit; it is then a dynamic joint (gravity, contacts and its own
+  damping and friction act on it), not a kinematic one;
+- the e-stop (``eStopTopic``, ``e_stop = True``): as DefaultRobotHWSim's, position-commanded
+  joints hold where they were when it came, velocity commands are 0 (with PID: the joint's
+  velocity is braked to 0) and efforts are 0, whatever the controllers command.
 
 Not a plugin module: the world seam has no joint commands, so this adapter (like joint_api)
 talks to ``world.physics``; the plugin (control/ros_control.py) reaches it only through it.
 """
+import math
 import xml.etree.ElementTree as ET
+
+from .controllers import ControllerError, Pid
 
 __all__ = ['Transmission', 'parse_transmissions', 'RobotHWSim', 'TransmissionError']
 
@@ -100,6 +112,38 @@ class RobotHWSim(object):
         self._kin = {}            # joint -> (sim time, position commanded, velocity read)
         self._seen = {}           # joint -> (sim time, position) a controller read
         self._movable = None      # all_joints()
+        self.pids = {}            # joint -> _JointPid (gazebo_ros_control/pid_gains)
+        self.e_stop = False       # set by the plugin before each write
+        self._e_hold = None       # joint -> position where the e-stop found it
+        self._last_write = None   # sim time of the last write (the PID's period)
+
+    def set_pid_gains(self, gains, where='gazebo_ros_control/pid_gains', log=None):
+        """PID gains per joint (a dict ``joint -> {p, i, d, i_clamp...}``, as the parameters
+        under ``<ns>/gazebo_ros_control/pid_gains``): a position- or velocity-interface joint
+        with gains is then driven by an effort. A joint without a position or velocity
+        interface, or gains without ``p`` or with a bad value, is one error line naming the
+        parameter, and the joint stays as it was (DefaultRobotHWSim too keeps the joint
+        without PID when control_toolbox refuses its gains). Returns the joints with gains."""
+        if not isinstance(gains, dict):
+            if gains is not None and log is not None:
+                log.error('%s must be a dict of joint names, got %r', where, gains)
+            return sorted(self.pids)
+        for joint, params in sorted(gains.items()):
+            at = '%s/%s' % (where, joint)
+            kinds = self.interfaces.get(joint, set()) & {'position', 'velocity'}
+            if not kinds:
+                if log is not None:
+                    log.error('%s: joint %r has no position or velocity interface in model '
+                              '%r: gains ignored', at, joint, self.model)
+                continue
+            try:
+                pid = Pid.from_params(params, at)
+            except ControllerError as e:
+                if log is not None:
+                    log.error('%s: joint %r keeps no PID', e, joint)
+                continue
+            self.pids[joint] = _JointPid(pid)
+        return sorted(self.pids)
 
     def all_joints(self):
         if self._movable is None:      # the model's joints do not change while it lives
@@ -132,6 +176,8 @@ class RobotHWSim(object):
         self._pending.pop(joint, None)
         self.efforts.pop(joint, None)
         self._kin.pop(joint, None)
+        if joint in self.pids:
+            self.pids[joint].reset()
         if joint in self._held and self.physics.has_model(self.model):
             damping, friction = self._held.pop(joint)
             self.physics.set_joint_dynamics(self.model, joint, damping=damping,
@@ -144,24 +190,50 @@ class RobotHWSim(object):
         return s[1] if s is not None and s[0] == now else \
             self.physics.joint_state(self.model, joint)[0]
 
+    def _effort(self, joint, e):
+        lim = self.physics.joint(self.model, joint).effort
+        e = max(-lim, min(lim, e)) if lim > 0 else e
+        self.efforts[joint] = e
+        self.physics.apply_joint_effort(self.model, joint, e, steps=1, key=KEY)
+
+    def _pid_effort(self, joint, kind, v, dt):
+        """DefaultRobotHWSim's POSITION_PID / VELOCITY_PID: the effort from the error."""
+        q, qd = self.physics.joint_state(self.model, joint)
+        if kind == 'position':
+            err = v - q
+            if self.joint_type(joint) == 'continuous':
+                err = math.atan2(math.sin(err), math.cos(err))
+        else:
+            err = v - qd
+        self._effort(joint, self.pids[joint].compute(err, dt))
+
     def write(self):
         seen, self._seen = self._seen, {}
+        now = self.world.sim_time
+        dt = now - self._last_write if self._last_write is not None else \
+            self.world.step_size
+        self._last_write = now
+        if self.e_stop and self._e_hold is None:
+            self._e_hold = dict((j, self.physics.joint_state(self.model, j)[0])
+                                for j in self.all_joints())
+        elif not self.e_stop:
+            self._e_hold = None
         if not self._pending:
             return
         ph, m = self.physics, self.model
         positions = {}
         for joint, (kind, v) in self._pending.items():
+            if self._e_hold is not None:         # the e-stop: hold, stand still, no effort
+                v = self._e_hold.get(joint, v) if kind == 'position' else 0.0
             if kind == 'effort':
-                lim = self.physics.joint(m, joint).effort
-                e = max(-lim, min(lim, v)) if lim > 0 else v
-                self.efforts[joint] = e
-                ph.apply_joint_effort(m, joint, e, steps=1, key=KEY)
+                self._effort(joint, v)
+            elif joint in self.pids and kind in ('position', 'velocity'):
+                self._pid_effort(joint, kind, v, dt)
             elif kind == 'position':
                 positions[joint] = v
             elif kind == 'velocity':
                 ph.set_joint_velocity(m, joint, v)
         if positions:
-            now = self.world.sim_time
             for j, q in positions.items():
                 if j not in self._held:
                     jj = self.physics.joint(m, j)
@@ -189,3 +261,23 @@ class RobotHWSim(object):
                 if v:
                     ph.set_joint_velocity(m, j, v)
         self._pending.clear()
+
+
+class _JointPid(object):
+    """control_toolbox's Pid as computeCommand(error, dt) uses it: the error's derivative is
+    its change since the last call (0 before the first), and a reset clears both."""
+
+    def __init__(self, pid):
+        self.pid = pid
+        self.last_error = 0.0
+
+    def compute(self, error, dt):
+        if dt <= 0 or not math.isfinite(error):
+            return 0.0
+        d = (error - self.last_error) / dt
+        self.last_error = error
+        return self.pid.compute(error, d, dt)
+
+    def reset(self):
+        self.pid.reset()
+        self.last_error = 0.0

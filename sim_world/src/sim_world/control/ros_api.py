@@ -11,6 +11,8 @@ Services (this package's copies of controller_manager_msgs, same md5sums):
       ``.../list_controller_types``, ``.../reload_controller_libraries`` (nothing to reload:
       refused while controllers are loaded unless ``force_kill``, which stops and unloads them)
 
+The plugin's ``eStopTopic`` (std_msgs/Bool), when it names one, is subscribed here.
+
 Per controller, made when it loads and gone when it unloads:
   ``joint_state_controller/JointStateController``  publishes ``<ns>/joint_states``
   single-joint controllers  subscribe ``<ns>/<ctrl>/command`` (std_msgs/Float64)
@@ -76,6 +78,13 @@ class ControllerManagerRos(object):
                                      srv.ListControllerTypes, srv.ReloadControllerLibraries)):
             self.services.append(transport.service(
                 self.plugin.resolve('controller_manager/' + s), typ, getattr(self, s)))
+        self.e_stop_sub = None
+        topic = getattr(self.plugin, 'e_stop_topic', '')
+        if topic:
+            from std_msgs.msg import Bool
+            self.e_stop_sub = transport.subscriber(self.plugin.resolve(topic), Bool,
+                                                   lambda m: self.plugin.e_stop(m.data),
+                                                   queue_size=1)
 
     # -- controller_manager's services --------------------------------------------------------
     def load_controller(self, req):
@@ -219,6 +228,9 @@ class ControllerManagerRos(object):
         for s in self.services:
             s.shutdown()
         self.services = []
+        if getattr(self, 'e_stop_sub', None) is not None:
+            self.e_stop_sub.unregister()
+            self.e_stop_sub = None
 
     # -- topics in -------------------------------------------------------------------------------
     def command_cb(self, name, msg):

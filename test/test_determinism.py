@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import time
+import xmlrpc.client
 
 import pytest
 from sim_world.netutil import master_port  # noqa: E402
@@ -43,10 +44,20 @@ def _record(seed, rtf, extra_topic=None, sim_seconds=2.0):
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     procs = []
     try:
+        master = xmlrpc.client.ServerProxy(env['ROS_MASTER_URI'])
+
+        def system_state():
+            """{topic: publishers}, {topic: subscribers} from the master (a rostopic
+            process per look was a second of Python start-up each)."""
+            try:
+                pubs, subs, _srvs = master.getSystemState('/determinism_test')[2]
+            except OSError:
+                return {}, {}
+            return dict(pubs), dict(subs)
+
         def advertised():
-            r = subprocess.run(['rostopic', 'list'], env=env, capture_output=True, text=True)
-            return IMU in r.stdout.split() and (extra_topic is None or
-                                                extra_topic in r.stdout.split())
+            pubs = system_state()[0]
+            return IMU in pubs and (extra_topic is None or extra_topic in pubs)
         _wait(advertised, 90, 'the phone to be spawned')
         out = io.StringIO()
         echo = subprocess.Popen(['rostopic', 'echo', '-p', IMU], env=env,
@@ -59,10 +70,7 @@ def _record(seed, rtf, extra_topic=None, sim_seconds=2.0):
                                           stderr=subprocess.DEVNULL, start_new_session=True))
 
         def subscribed():
-            r = subprocess.run(['rostopic', 'info', IMU], env=env, capture_output=True,
-                               text=True)
-            return 'Subscribers:' in r.stdout and '/rostopic' in \
-                r.stdout.split('Subscribers:')[1]
+            return any(n.startswith('/rostopic') for n in system_state()[1].get(IMU, ()))
         _wait(subscribed, 30, 'rostopic echo to subscribe')
         time.sleep(1.0)
         subprocess.run(['rosservice', 'call', '/gazebo/unpause_physics'], env=env, check=True,

@@ -1,5 +1,8 @@
 #!/usr/bin/env python3
-"""rostest: sensor faults through rosservice act on every output (sensor_faults.test)."""
+"""rostest: sensor faults through /gazebo/set_sensor_fault act on every output
+(sensor_faults.test). The calls go through a service proxy (a `rosservice` process costs
+seconds of start-up on a loaded machine); one refused call goes through `rosservice call`
+as a user types it, and its printed reason is checked."""
 import re
 import subprocess
 import unittest
@@ -9,12 +12,20 @@ import rostest
 from sensor_msgs.msg import BatteryState, Imu
 
 from mobile_device_sim.msg import ContactsState, PowerState
+from mobile_device_sim.srv import SetSensorFault
 from common import Recorder  # noqa: E402
 
 NS = '/mobile_device/'
 
 
 def fault(sensor, kind, value=0.0):
+    """/gazebo/set_sensor_fault through a proxy: (success, status_message)."""
+    res = rospy.ServiceProxy('/gazebo/set_sensor_fault', SetSensorFault)(
+        model_name='mobile_device', sensor=sensor, fault=kind, value=value)
+    return res.success, res.status_message
+
+
+def fault_cli(sensor, kind, value=0.0):
     """`rosservice call /gazebo/set_sensor_fault ...` as a user types it: (success, text)."""
     out = subprocess.run(
         ['rosservice', 'call', '/gazebo/set_sensor_fault',
@@ -85,7 +96,7 @@ class SensorFaults(unittest.TestCase):
         ok, text = fault('led', 'drop')
         self.assertFalse(ok, text)
         self.assertIn('not a sensor', text)
-        ok, text = fault('imu_sensor_data', 'smoke')
+        ok, text = fault_cli('imu_sensor_data', 'smoke')
         self.assertFalse(ok, text)
         self.assertIn("'smoke' is not known", text)
 

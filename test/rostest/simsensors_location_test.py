@@ -13,9 +13,9 @@ from sensor_msgs.msg import (FluidPressure, MagneticField, NavSatFix, NavSatStat
 from std_msgs.msg import Float64, String
 
 from mobile_device_sim.msg import EnvironmentValue
-from mobile_device_sim.srv import SetEnvironment
-from common import (Recorder, model_state_msg, rated_topics, rosservice, sim_now,  # noqa: E402
-                    sim_sleep, start)
+from mobile_device_sim.srv import SetDeviceTime, SetEnvironment
+from common import (Recorder, model_state_msg, rated_topics, sim_now, sim_sleep,  # noqa: E402
+                    start)
 
 NS = '/mobile_device/'
 # topic -> (documented type, class, rate in Hz of sim time; None: not checked here)
@@ -107,12 +107,15 @@ class LocationSensors(unittest.TestCase):
 
     def test_4_set_device_time(self):
         before = sim_now()
-        out = rosservice(NS + 'set_device_time', '{device_time: {secs: 1700000000, nsecs: 0}}')
-        self.assertIn('success: True', out)
+        # a proxy, not `rosservice call` (seconds of start-up; the README's command is run
+        # by test_readme_commands)
+        res = rospy.ServiceProxy(NS + 'set_device_time', SetDeviceTime)(
+            device_time=rospy.Time(1700000000, 0))
+        self.assertTrue(res.success, res.status_message)
         after = sim_now()
         sim_sleep(2.5)
         tr = self.rec['time_reference'].msgs[-1]
-        # set somewhere between before and after (rosservice takes a while to start)
+        # set somewhere between before and after the call
         ran = tr.time_ref.to_sec() - 1700000000
         self.assertGreaterEqual(ran, tr.header.stamp.to_sec() - after - 0.01)
         self.assertLessEqual(ran, tr.header.stamp.to_sec() - before + 0.01)

@@ -11,7 +11,7 @@ from sensor_msgs.msg import BatteryState, Illuminance, Range
 from std_msgs.msg import Bool, ColorRGBA
 
 from mobile_device_sim.msg import ButtonEvent, ContactsState, PowerState, TouchEvent
-from mobile_device_sim.srv import DeleteModel, SpawnModel
+from mobile_device_sim.srv import DeleteModel, InjectTouch, PressButton, SpawnModel
 from common import Recorder, rated_topics, rosservice, sim_sleep, start  # noqa: E402
 
 NS = '/mobile_device/'
@@ -37,6 +37,8 @@ class PhoneSensors(unittest.TestCase):
         start('simsensors_phone_test', timeout=60)
         cls.rec = dict((t, Recorder(NS + t, c)) for t, (_, c, _) in TOPICS.items())
         rospy.wait_for_service(NS + 'inject_touch', timeout=30)
+        cls.touch = rospy.ServiceProxy(NS + 'inject_touch', InjectTouch)
+        cls.press = rospy.ServiceProxy(NS + 'press_button', PressButton)
         sim_sleep(3.0)
 
     def test_types_and_rates(self):
@@ -68,8 +70,9 @@ class PhoneSensors(unittest.TestCase):
                               '{x: 150, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
         self.assertIn('success: True', out)
         nb = len(self.rec['buttons'].msgs)
-        out = rosservice(NS + 'press_button', '{button: power, duration: 0.1}')
-        self.assertIn('success: True', out)
+        # the rest through proxies (a rosservice process costs seconds of start-up)
+        res = self.press(button='power', duration=0.1)
+        self.assertTrue(res.success, res.status_message)
         sim_sleep(1.0)
         ev = self.rec['touch'].msgs[n:]
         self.assertEqual([e.action for e in ev][0], TouchEvent.DOWN)
@@ -83,12 +86,12 @@ class PhoneSensors(unittest.TestCase):
         self.assertEqual([(b.button, b.state) for b in be],
                          [('power', ButtonEvent.PRESSED), ('power', ButtonEvent.RELEASED)])
         # bad input: refused with a reason, nothing happens
-        out = rosservice(NS + 'inject_touch',
-                              '{x: -5, y: 250, duration: 0.2, pressure: 0.5, x_end: -1, y_end: -1}')
-        self.assertIn('success: False', out)
-        self.assertIn('outside the display', out)
-        out = rosservice(NS + 'press_button', '{button: home, duration: 0.1}')
-        self.assertIn('success: False', out)
+        res = self.touch(x=-5, y=250, duration=0.2, pressure=0.5, x_end=-1, y_end=-1)
+        self.assertFalse(res.success)
+        self.assertIn('outside the display', res.status_message)
+        res = self.press(button='home', duration=0.1)
+        self.assertFalse(res.success)
+        self.assertIn("named 'home'", res.status_message)
 
     def test_charger(self):
         pub = rospy.Publisher(NS + 'charger', Bool, queue_size=1, latch=True)

@@ -124,3 +124,72 @@ def test_e_stop_zeroes_efforts_and_velocities(physics):
         assert w.joint_states('rotor')['spin'][1] == pytest.approx(v0, rel=0.02)
     finally:
         w.shutdown()
+
+
+# -- the trajectory controllers' velocity variant and stop_trajectory_duration --------------
+def _jtc(kind, joint, **extra):
+    params = {'type': '%s_controllers/JointTrajectoryController' % kind, 'joints': [joint]}
+    params.update(extra)
+    return params
+
+
+def test_velocity_trajectory_controller_follows_a_trajectory(physics):
+    from sim_world.control.trajectory import Point, Trajectory
+    w, plugin = run(physics, with_control(rotor(), 'VelocityJointInterface', 'spin'), 0,
+                    ('traj', _jtc('velocity', 'spin', gains={'spin': {'p': 20.0}},
+                                  velocity_ff={'spin': 1.0})))
+    try:
+        c = plugin.manager.controllers['traj']
+        assert c.TYPE in dict((t[1], 1) for t in plugin.manager.list_controllers())
+        c.submit_command(Trajectory(['spin'], [Point([1.0], [0.0], [], 1.0),
+                                               Point([2.0], [0.0], [], 2.0)]))
+        w.step(1000)
+        q, v = w.joint_states('rotor')['spin']
+        assert q == pytest.approx(1.0, abs=0.02)
+        w.step(1500)
+        q, v = w.joint_states('rotor')['spin']
+        assert q == pytest.approx(2.0, abs=0.01) and abs(v) < 0.05
+    finally:
+        w.shutdown()
+
+
+def test_velocity_trajectory_controller_needs_gains(physics, caplog):
+    w, plugin = run(physics, with_control(rotor(), 'VelocityJointInterface', 'spin'), 0)
+    try:
+        with caplog.at_level(logging.ERROR):
+            ok, msg = plugin.manager.load_controller('traj', _jtc('velocity', 'spin'))
+            assert not ok and 'traj/gains is missing' in msg
+            ok, msg = plugin.manager.load_controller(
+                'traj', _jtc('velocity', 'spin', gains={'spin': {'p': 1.0}}, velocity_ff=[1]))
+            assert not ok and 'traj/velocity_ff must be a dict' in msg
+    finally:
+        w.shutdown()
+
+
+@pytest.mark.parametrize('stop', [0.0, 0.5])
+def test_stop_trajectory_duration_brings_a_moving_joint_to_rest(stop):
+    from sim_world.control.trajectory import Point, Trajectory
+    w, plugin = run('ode', with_control(pendulum(), 'PositionJointInterface', 'hinge'), 0,
+                    ('traj', _jtc('position', 'hinge', stop_trajectory_duration=stop)))
+    try:
+        c = plugin.manager.controllers['traj']
+        c.submit_command(Trajectory(['hinge'], [Point([0.0], [], [], 0.0),
+                                                Point([2.0], [], [], 1.0)]))
+        w.step(500)                                       # halfway: 1 rad, 2 rad/s
+        q0 = w.joint_states('pend')['hinge'][0]
+        assert q0 == pytest.approx(1.0, abs=0.01)
+        c.submit_command(Trajectory(['hinge'], []))       # empty: stop and hold
+        w.step(250)
+        q_mid = w.joint_states('pend')['hinge'][0]
+        w.step(500)
+        q1 = w.joint_states('pend')['hinge'][0]
+        if stop == 0:
+            assert q_mid == pytest.approx(q0, abs=0.01) and q1 == pytest.approx(q0, abs=0.01)
+        else:
+            # rest 5/8 v T further on, reached smoothly (still moving halfway)
+            assert q0 + 0.01 < q_mid < q1
+            assert q1 == pytest.approx(q0 + 0.625 * 2.0 * stop, abs=0.02)
+        w.step(200)
+        assert w.joint_states('pend')['hinge'][0] == pytest.approx(q1, abs=1e-3)
+    finally:
+        w.shutdown()

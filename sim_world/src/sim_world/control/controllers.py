@@ -360,8 +360,10 @@ def controller_types():
     (sim_world.control.trajectory builds on this module, so it is imported here late)."""
     if 'position_controllers/JointTrajectoryController' not in CONTROLLER_TYPES:
         from .trajectory import (EffortJointTrajectoryController,
-                                 PositionJointTrajectoryController)
-        for c in (PositionJointTrajectoryController, EffortJointTrajectoryController):
+                                 PositionJointTrajectoryController,
+                                 VelocityJointTrajectoryController)
+        for c in (PositionJointTrajectoryController, EffortJointTrajectoryController,
+                  VelocityJointTrajectoryController):
             CONTROLLER_TYPES[c.TYPE] = c
     return CONTROLLER_TYPES
 

@@ -284,12 +284,21 @@ class JointTrajectoryController(Controller):
             self.goal = None
 
     def hold(self, t, goal=None):
-        """Hold the current position (ros_controllers' hold trajectory)."""
+        """Hold the current position (ros_controllers' setHoldPosition). With
+        ``stop_trajectory_duration`` T > 0 a moving joint is brought to rest in T: the segment
+        ends where a quintic from (q, v) to (q, -v) over 2T is at its midpoint (where its
+        velocity is 0: 5/8 v T further on), as ros_controllers builds it; with 0, at once."""
+        T = self.stop_trajectory_duration
         self.segments = []
         for j in self.joints:
-            q = self.hw.state(j)[0]
-            s = State(q, 0.0, 0.0)
-            self.segments.append([Segment(t, s, t, s, goal)])
+            q, v = self.hw.state(j)[:2]
+            if T > 0 and v:
+                s0 = State(q, v, 0.0)
+                end = State(*Segment(t, s0, t + 2 * T, State(q, -v, 0.0)).sample(t + T))
+                self.segments.append([Segment(t, s0, t + T, end, goal)])
+            else:
+                s = State(q, 0.0, 0.0)
+                self.segments.append([Segment(t, s, t, s, goal)])
 
     def sample(self, t):
         """(positions, velocities, accelerations) of the current trajectory at ``t``."""
@@ -524,3 +533,30 @@ class EffortJointTrajectoryController(JointTrajectoryController):
     def command(self, des_p, des_v, err_p, err_v, dt):
         for j, pid, ep, ev in zip(self.joints, self.pids, err_p, err_v):
             self.hw.command(j, 'effort', pid.compute(ep, ev, dt))
+
+
+class VelocityJointTrajectoryController(EffortJointTrajectoryController):
+    """velocity_controllers/JointTrajectoryController: ros_controllers' velocity adapter, the
+    command is ``velocity_ff/<joint>`` (default 0) times the desired velocity plus the PID
+    (``gains/<joint>``) of the position and velocity errors; 0 when it starts."""
+    TYPE = 'velocity_controllers/JointTrajectoryController'
+    INTERFACE = 'velocity'
+
+    def load_gains(self, params):
+        EffortJointTrajectoryController.load_gains(self, params)
+        ff = params.get('velocity_ff', {})
+        if not isinstance(ff, dict):
+            raise ControllerError('%s/velocity_ff must be a dict ({<joint>: factor}), got %r'
+                                  % (self.name, ff))
+        self.velocity_ff = [_num(ff, j, '%s/velocity_ff' % self.name, 0.0) for j in self.joints]
+        self._des_v = [0.0] * len(self.joints)
+
+    def starting(self, t):
+        EffortJointTrajectoryController.starting(self, t)
+        for j in self.joints:
+            self.hw.command(j, 'velocity', 0.0)
+
+    def command(self, des_p, des_v, err_p, err_v, dt):
+        for j, pid, ff, dv, ep, ev in zip(self.joints, self.pids, self.velocity_ff, des_v,
+                                          err_p, err_v):
+            self.hw.command(j, 'velocity', ff * dv + pid.compute(ep, ev, dt))

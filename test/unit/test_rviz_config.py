@@ -37,6 +37,9 @@ def test_bad_namespace_and_config_are_refused():
         phone_config(BASE, ['2 phones'])
     with pytest.raises(ValueError, match='RobotModel'):
         phone_config('Panels: []\n', ['phone2'])
+    # no phone to add: a config of the user's own goes through unchanged
+    assert phone_config('Panels: []\n', []) == 'Panels: []\n'
+    assert phone_config('Panels: []\n', ['', '/']) == 'Panels: []\n'
 
 
 def test_rviz_launch_passes_phones():

@@ -39,10 +39,14 @@ _MODEL = '''    - Class: rviz/RobotModel
 def phone_config(text, phones, description='robot_description'):
     """The rviz config ``text`` (phone.rviz) with a robot model and a camera image display for
     each namespace in ``phones`` (names without slashes; empty ones are skipped), inserted
-    after the config's own robot model; ValueError when ``text`` has no rviz/RobotModel
-    display or a namespace holds characters a ROS name cannot."""
+    after the config's own robot model (with no phones, ``text`` unchanged: a config of the
+    user's own needs no particular display); ValueError when phones are to be added and
+    ``text`` has no rviz/RobotModel and rviz/TF display, or a namespace holds characters a
+    ROS name cannot."""
     import re
     anchor = '    - Class: rviz/TF\n'
+    if not [ns for ns in phones if ns.strip('/')]:
+        return text                  # nothing to add: any config of the user's own goes as is
     if '    - Class: rviz/RobotModel\n' not in text or anchor not in text:
         raise ValueError('the rviz config has no RobotModel and TF displays to add phones beside')
     extra = []

@@ -16,15 +16,18 @@ A block marked ``<!-- not-run: REASON -->`` is not run; test_blocks_not_run_here
 prints every such block with its reason in the test output (never a silent skip).
 The conventions are in docs/tests.md, "Documentation that is tested"."""
 import os
+import queue
 import signal
 import subprocess
+import threading
 import time
+import xmlrpc.client
 
 import pytest
 import yaml
 
-from fixtures.readme_blocks import (doc_pages, leaves_the_shared_world_alone, shell_blocks,
-                                    runs_until_interrupted, starts_a_world)
+from fixtures.readme_blocks import (Command, doc_pages, leaves_the_shared_world_alone,
+                                    shell_blocks, runs_until_interrupted, starts_a_world)
 from fixtures.rosworld import office_world
 from sim_world.netutil import master_port
 
@@ -33,6 +36,7 @@ FINITE_TIMEOUT = float(os.environ.get('MDS_README_TIMEOUT', '600'))   # s, a com
 EXPECT_TIMEOUT = 150.0    # s a command that runs until Ctrl-C has to print what the page shows
 SETTLE = {'roslaunch': 15.0, 'roscore': 3.0}    # s such a command runs when nothing is expected
 SETTLE_DEFAULT = 8.0
+GRACE = 3.0               # s such a command still runs once it has registered a new node
 STOP_TIMEOUT = 30.0       # s after SIGINT
 
 PAGES = [p for p in doc_pages(ROOT) if shell_blocks(ROOT, p)]
@@ -67,7 +71,11 @@ def world(tmp_path_factory):
         os.makedirs(env['ROS_HOME'], exist_ok=True)
         env['MDS_README_TMP'] = str(tmp)
         env['MDS_README_MODELS'] = ' '.join(_launched_models(env))
-        yield env
+        control = _WorldControl(env)
+        try:
+            yield env, control
+        finally:
+            control.close()
 
 
 def _launched_models(env, timeout=180.0):
@@ -102,36 +110,118 @@ def _models(env):
     return [str(n) for n in names] if isinstance(names, list) else None
 
 
-_PAUSED = set()     # holds 'paused' while the shared world is paused (_world_running)
+_CONTROL = r"""
+import sys
+import rospy
+from std_srvs.srv import Empty
+from mobile_device_sim.msg import ModelStates
+from mobile_device_sim.srv import DeleteModel
+rospy.init_node('readme_world_control', anonymous=True, disable_signals=True)
+SERVICES = {'pause': ('/gazebo/pause_physics', Empty),
+            'unpause': ('/gazebo/unpause_physics', Empty),
+            'delete': ('/gazebo/delete_model', DeleteModel),
+            'reset': ('/gazebo/reset_world', Empty)}
+def call(what, **kw):
+    name, kind = SERVICES[what]
+    rospy.wait_for_service(name, 60)
+    return rospy.ServiceProxy(name, kind)(**kw)
+print('ready', flush=True)
+for line in sys.stdin:
+    words = line.split()
+    try:
+        if words[0] == 'reset':
+            keep = set(words[1:])
+            names = rospy.wait_for_message('/gazebo/model_states', ModelStates, timeout=60).name
+            for name in names:
+                if name not in keep:
+                    call('delete', model_name=name)
+        call(words[0])
+        print('ok', flush=True)
+    except Exception as e:
+        print(('%s %s: %s' % (words[0], type(e).__name__, e)).replace('\n', ' '), flush=True)
+"""
 
 
-def _world_running(env, running):
-    """Pause the shared world while a command that cannot reach it runs (its own master:
-    leaves_the_shared_world_alone), run it again before one that may; only on a change."""
-    if running == ('paused' not in _PAUSED):
-        return
-    srv = '/gazebo/unpause_physics' if running else '/gazebo/pause_physics'
-    r = _run_quiet(env, 'rosservice call %s' % srv)
-    assert r.returncode == 0, '%s between commands failed:\n%s' % (srv, r.stdout)
-    if running:
-        _PAUSED.discard('paused')
-    else:
-        _PAUSED.add('paused')
+class _WorldControl(object):
+    """Pauses, runs and resets the shared world from one long-lived node (each rosservice or
+    rostopic command would cost a Python start-up: pages flip the world a few times each)."""
 
+    def __init__(self, env):
+        self.p = subprocess.Popen(_bash('exec python3 -c "$MDS_CONTROL"'), cwd=ROOT,
+                                  env=dict(env, MDS_CONTROL=_CONTROL), stdin=subprocess.PIPE,
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                  universal_newlines=True, bufsize=1, start_new_session=True)
+        self.paused = False
+        self.lines = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+        self._answer('starting the world control node', 120)
 
-def _reset(env):
-    """The world as the launch made it: spawned models deleted, then reset_world."""
-    _world_running(env, True)
-    keep = set(env['MDS_README_MODELS'].split())
-    for name in _models(env) or []:
-        if name not in keep:
-            _run_quiet(env, "rosservice call /gazebo/delete_model '{model_name: %s}'" % name)
-    r = _run_quiet(env, 'rosservice call /gazebo/reset_world')
-    assert r.returncode == 0, 'reset_world between pages failed:\n' + r.stdout
+    def _answer(self, what, timeout):
+        deadline = time.monotonic() + timeout
+        lines = []
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            if line is None:
+                break
+            lines.append(line.rstrip())
+            if line.strip() in ('ok', 'ready'):
+                return
+            if line.startswith(what.split()[0] + ' '):
+                break
+        raise AssertionError('%s failed:\n%s' % (what, '\n'.join(lines)))
+
+    def _read(self):
+        for line in self.p.stdout:
+            self.lines.put(line)
+        self.lines.put(None)
+
+    def request(self, line, timeout=120):
+        self.p.stdin.write(line + '\n')
+        self.p.stdin.flush()
+        self._answer(line.split()[0], timeout)
+
+    def running(self, running):
+        """Pause the shared world while a command that cannot reach it runs (its own
+        master: leaves_the_shared_world_alone), run it again before one that may; only on
+        a change."""
+        if running == self.paused:
+            self.request('unpause' if running else 'pause')
+            self.paused = not running
+
+    def reset(self, keep):
+        """The world as the launch made it: spawned models deleted, then reset_world."""
+        self.running(True)
+        self.request('reset ' + ' '.join(keep))
+
+    def close(self):
+        if self.p.poll() is None:
+            os.killpg(self.p.pid, signal.SIGINT)
+            try:
+                self.p.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.p.pid, signal.SIGKILL)
+                self.p.wait()
+        self.p.stdin.close()
 
 
 class Failure(Exception):
     pass
+
+
+def _nodes(env):
+    """The nodes registered with env's master (publishing, subscribing or serving), or None
+    when no master answers there."""
+    try:
+        code, _m, state = xmlrpc.client.ServerProxy(env['ROS_MASTER_URI']).getSystemState(
+            '/readme_test')
+    except (OSError, xmlrpc.client.Error):
+        return None
+    if code != 1:
+        return None
+    return {n for kind in state for _name, nodes in kind for n in nodes}
 
 
 def _tail(path, n=2500):
@@ -195,18 +285,24 @@ def _run_command(cmd, env, log, background):
     """Runs one command; returns the process if it is left running (background). Whatever
     happens meanwhile (a failure, Ctrl-C of the suite), nothing of it is left running."""
     started = time.time()
+    nodes = (_nodes(env) if runs_until_interrupted(cmd.text) and not cmd.expects
+             and not background else None)
     with open(log, 'w') as out:
         p = subprocess.Popen(_bash(cmd.text), cwd=ROOT, env=env, stdout=out,
                              stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                              start_new_session=True)
     try:
-        return _follow(cmd, p, log, background, started)
+        return _follow(cmd, p, log, background, started, env, nodes)
     except BaseException:
         _stop(p)
         raise
 
 
-def _follow(cmd, p, log, background, started):
+def _follow(cmd, p, log, background, started, env, nodes):
+    """nodes: the master's nodes before a command that runs until Ctrl-C and shows no output
+    started (None: no master yet). Such a command runs SETTLE seconds, or GRACE seconds
+    once a node of its own is registered with the master (it got through its start-up:
+    imports, arguments, init_node, its topics)."""
     if background:
         # a background command's '# -> TEXT' says when it is ready for the next line
         deadline = time.monotonic() + (EXPECT_TIMEOUT if cmd.expects else 2.0)
@@ -224,9 +320,15 @@ def _follow(cmd, p, log, background, started):
         prog = cmd.text.split()[0]
         deadline = time.monotonic() + (EXPECT_TIMEOUT if cmd.expects
                                        else SETTLE.get(prog, SETTLE_DEFAULT))
+        registered = False
         while time.monotonic() < deadline and p.poll() is None:
             if cmd.expects and _printed(log, cmd.expects):
                 break
+            if nodes is not None and not registered:
+                now = _nodes(env)
+                if now is not None and now - nodes:
+                    registered = True
+                    deadline = min(deadline, time.monotonic() + GRACE)
             time.sleep(0.3)
         code = p.poll()
         with open(log, errors='replace') as f:
@@ -253,13 +355,15 @@ def _follow(cmd, p, log, background, started):
 @pytest.mark.slow
 @pytest.mark.parametrize('page', PAGES)
 def test_readme_page_commands_work_as_typed(page, world):
+    world, control = world
     blocks = [b for b in shell_blocks(ROOT, page) if b.not_run is None]
     if not blocks:
         return
-    _reset(world)
+    r0 = time.monotonic()
+    control.reset(world['MDS_README_MODELS'].split())
     tmp = world['MDS_README_TMP']
-    failures, ran = [], 0
-    t0 = time.monotonic()
+    failures, ran, times = [], 0, [(time.monotonic() - r0, 'the reset before the page')]
+    t0 = r0
     for block in blocks:
         block_env = None
         if any(c.text.split()[0] == 'roscore' for c in block.commands if c.text.split()):
@@ -270,10 +374,11 @@ def test_readme_page_commands_work_as_typed(page, world):
                 log = os.path.join(tmp, '%s_%d.log' % (page.replace('/', '_'), cmd.line))
                 ran += 1
                 env = _command_env(world, block_env, cmd)
-                _world_running(world, not leaves_the_shared_world_alone(cmd.text, ROOT))
+                control.running(not leaves_the_shared_world_alone(cmd.text, ROOT))
                 if cmd.text.split()[:1] == ['roscore'] and '-p' not in cmd.text.split():
                     # roscore takes 11311 whatever ROS_MASTER_URI says: the block's port
                     cmd.text += ' -p %s' % env['ROS_MASTER_URI'].rsplit(':', 1)[1]
+                c0 = time.monotonic()
                 try:
                     p = _run_command(cmd, env, log, cmd.background)
                     if p is not None:
@@ -281,10 +386,19 @@ def test_readme_page_commands_work_as_typed(page, world):
                 except Failure as e:
                     failures.append('%s:%d  %s\n    %s\n%s' % (page, cmd.line, cmd.text, e,
                                                               _indent(_tail(log))))
+                finally:
+                    times.append((time.monotonic() - c0, cmd))
         finally:
+            s0 = time.monotonic()
             for p in reversed(background):
                 _stop(p)
-    _world_running(world, True)
+            if background:
+                times.append((time.monotonic() - s0, 'stop of the block at line %d' % block.line))
+    control.running(True)
+    # each command's wall seconds (a background command's: until it was ready), then the sum
+    print('\n'.join('  %6.1f s  %s' % (t, '%d: %s' % (c.line, c.text.split('\n')[0][:100])
+                                        if isinstance(c, Command) else c)
+                     for t, c in times))
     print('%s: %d commands in %d blocks, %.0f s' % (page, ran, len(blocks),
                                                     time.monotonic() - t0))
     assert not failures, '%d of %d commands of %s failed:\n\n%s' % (

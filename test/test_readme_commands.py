@@ -9,8 +9,12 @@ by every page). A command that starts a world of its own (roslaunch of a world, 
 tools/demo) gets a master of its own. Each command must exit as the page says (0 unless
 ``# -> exit N``), print what the page shows (``# -> TEXT``), write the files it names, and
 print no Python traceback. A command that runs until Ctrl-C is started, checked, then
-stopped with SIGINT. Between pages the world is reset (``/gazebo/reset_world``) and the
-models a page spawned are deleted.
+stopped with SIGINT: once it printed what the page shows, or, when the page shows nothing,
+GRACE seconds after a node of its own registered with the master (at most SETTLE seconds).
+Between pages the world is reset (``/gazebo/reset_world``) and the models a page spawned
+are deleted; the shared world is paused while a command of a master of its own runs. Both
+by one long-lived node (_WorldControl), not a rosservice per step. The test's output lists
+each command's wall seconds.
 
 A block marked ``<!-- not-run: REASON -->`` is not run; test_blocks_not_run_here_are_listed
 prints every such block with its reason in the test output (never a silent skip).

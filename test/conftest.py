@@ -28,3 +28,10 @@ from fixtures.shuffle import pytest_collection_modifyitems, pytest_report_header
 # a test that removes or changes an environment variable and does not give it back errors,
 # named, and the variable is given back (fixtures/env_kept.py)
 from fixtures.env_kept import _environment_kept  # noqa: E402,F401
+
+
+# runs several integration test files compare against, done once per session: the farm over
+# every example, compass_declination's sweep, auto_rotate's recording
+# (fixtures/example_farm.py)
+from fixtures.example_farm import (auto_rotate_recording, declination_sweep,  # noqa: E402,F401
+                                   example_farm)

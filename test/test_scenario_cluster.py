@@ -96,13 +96,12 @@ def test_unreachable_cluster_is_one_line(tmp_path):
     assert time.monotonic() - t0 < 30
 
 
-def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
+def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path,
+                                                            declination_sweep):
     c, workers, address = cluster
-    local = tmp_path / 'local'
-    p = subprocess.run(sweep_cmd(local, '--jobs', '2', '--report', tmp_path / 'rl'),
-                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                       timeout=600, env=env())
-    assert p.returncode == 1, p.stdout
+    # the local --jobs 2 farm: the session's sweep (fixtures/example_farm.py)
+    rc, text, local = declination_sweep
+    assert rc == 1, text
     _, ref = statuses(local)
     assert sorted(ref.values()) == ['FAIL', 'PASS'], ref
 
@@ -119,7 +118,7 @@ def test_cluster_sweep_equals_local_farm_and_survives_a_node(cluster, tmp_path):
         [r['id'] + '.xml' for r in s['runs']] + ['sweep.xml'])            # the local layout
     # --report: each run's report shipped back from its worker, and the farm index, laid out
     # as the local farm's
-    layout = sorted(os.listdir(tmp_path / 'rl'))
+    layout = sorted(os.listdir(local / 'report'))
     assert layout == sorted([r['id'] for r in s['runs']] + ['index.html']), layout
     assert sorted(os.listdir(tmp_path / 'rc')) == layout
     for r in s['runs']:

@@ -1,7 +1,9 @@
 """Integration tests of the testing instance: real roscore, real world, real apps.
 
 - every example scenario passes and every deliberately failing variant fails with its
-  message, run by the farm (--jobs 2), and the farm's verdicts agree with serial runs;
+  message, run by the farm (--jobs 2; the session's, shared with the files that compare
+  their own modes with it: fixtures/example_farm.py); serial runs agree with its verdicts
+  (test_embedded.test_examples_get_the_same_verdicts_embedded);
 - the same scenario and seed give identical recordings message by message, at real-time
   factor 0 and 1, and another seed does not;
 - replaying a recording reproduces the app's outputs;
@@ -67,8 +69,11 @@ def test_bad_scenario_is_an_error_with_file_and_line(tmp_path):
     assert '<error' in (tmp_path / 'j.xml').read_text()
 
 
-def test_examples_farm_and_failure_reports(tmp_path):
-    rc, out = run('--jobs', '2', '--junit', tmp_path / 'junit', EX)
+def test_examples_farm_and_failure_reports(example_farm):
+    # the session's farm over every example (fixtures/example_farm.py; test_embedded,
+    # test_warm_farm and test_scenario_sweeps compare their own modes with it; the serial
+    # runs that agree with it are test_embedded's examples run embedded)
+    rc, out = example_farm.rc, example_farm.out
     assert rc == 1, out            # the failing variants fail, nothing is an error
     table = dict(re.findall(r'^(\S+\.yaml)\s+(PASS|FAIL|ERROR)\s', out, re.M))
     files = sorted(os.path.basename(p) for p in glob.glob(os.path.join(EX, '*.yaml')))
@@ -85,20 +90,17 @@ def test_examples_farm_and_failure_reports(tmp_path):
     assert re.search(r"\[wifi_walk_fails.yaml\] FAIL west_ap_in_the_west_room: expected always "
                      r"/mobile_device/wifi/link.bssid == '00:1a:2b:3c:4d:01' .* after arrived; "
                      r"actual '00:1a:2b:3c:4d:02'", out), out
-    assert len(glob.glob(str(tmp_path / 'junit' / '*.xml'))) == len(files)
-    # serial runs agree with the farm's verdicts
+    assert len(glob.glob(str(example_farm.junit / '*.xml'))) == len(files)
     farm = verdicts(out, '[auto_rotate_fails.yaml] ')
     assert farm['landscape'] == 'FAIL' and farm['portrait'] == 'PASS'
-    rc1, out1 = run(os.path.join(EX, 'auto_rotate_fails.yaml'))
-    assert rc1 == 1
-    assert verdicts(out1) == farm, out1
 
 
-def test_same_seed_same_recording_at_any_real_time_factor(tmp_path):
+def test_same_seed_same_recording_at_any_real_time_factor(tmp_path, auto_rotate_recording):
     sc = os.path.join(EX, 'auto_rotate.yaml')
-    a, b, c = tmp_path / 'a.bag', tmp_path / 'b.bag', tmp_path / 'c.bag'
-    rc, out = run(sc, '--record', a, '--real-time-factor', 0)
+    # a: the session's run at real_time_factor 0 (the file's; fixtures/example_farm.py)
+    rc, out, a = auto_rotate_recording
     assert rc == 0, out
+    b, c = tmp_path / 'b.bag', tmp_path / 'c.bag'
     rc, out = run(sc, '--record', b, '--real-time-factor', 1)
     assert rc == 0, out
     rc, out = run(sc, '--record', c, '--real-time-factor', 0, '--seed', 99)
@@ -240,15 +242,15 @@ def test_missing_topic_and_field_are_errors_naming_them(tmp_path):
     assert 'PASS fine:' in out
 
 
-def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path):
+def test_verdicts_and_recordings_do_not_depend_on_machine_load(tmp_path, auto_rotate_recording):
     """The slice handshake has no wall-clock quiet period to miss: the example with an app
     gives the same verdicts and the same recorded messages at the same times, while two
     CPU hogs (stress-ng --cpu 2) compete for the machine's cores."""
     from fixtures.hogs import cpu_hogs
     sc = os.path.join(EX, 'auto_rotate.yaml')
-    calm, loaded = tmp_path / 'calm.bag', tmp_path / 'loaded.bag'
-    rc, out_calm = run(sc, '--record', calm)
+    rc, out_calm, calm = auto_rotate_recording      # the session's run, no hogs
     assert rc == 0, out_calm
+    loaded = tmp_path / 'loaded.bag'
     with cpu_hogs():
         rc, out_loaded = run(sc, '--record', loaded)
     assert rc == 0, out_loaded

@@ -5,7 +5,8 @@ the world between scenarios with /gazebo/reload_world.
   a fresh world, message by message with its times, though the first one changed
   everything a scenario can change (environment, faults, charger, radio, models spawned,
   deleted and moved, the phone's start pose, an app parameter, a latched topic);
-- the warm farm's verdicts on the examples are the cold farm's;
+- the warm farm's verdicts on the examples are the cold farm's (the warm farm: the
+  session's, fixtures/example_farm.py);
 - the world node's reload service refuses bad requests with one line and keeps serving.
 """
 import os
@@ -29,7 +30,7 @@ def messy_text():
         return f.read().replace('../../testing_instance/examples', EX)
 
 
-def test_warm_world_gives_the_cold_recording(tmp_path):
+def test_warm_world_gives_the_cold_recording(tmp_path, auto_rotate_recording):
     b = os.path.join(EX, 'auto_rotate.yaml')
     # one worker: messy, then auto_rotate in the same world
     rc, out = run_scenario('--jobs', '1', MESSY, b, '--record', tmp_path / 'warm',
@@ -37,11 +38,12 @@ def test_warm_world_gives_the_cold_recording(tmp_path):
     assert rc == 0, out
     assert re.search(r'\[messy.yaml\] scenario messy .*: PASS', out), out
     assert re.search(r'\[auto_rotate.yaml\] start-up: \d', out), out
-    rc, out_cold = run_scenario(b, '--record', tmp_path / 'cold.bag', timeout=600)
+    # cold: auto_rotate alone in a fresh world, the session's run (fixtures/example_farm.py)
+    rc, out_cold, cold_bag = auto_rotate_recording
     assert rc == 0, out_cold
     assert verdicts(out, '[auto_rotate.yaml] ') == verdicts(out_cold)
     warm = bag_messages(tmp_path / 'warm' / 'auto_rotate.bag')
-    cold = bag_messages(tmp_path / 'cold.bag')
+    cold = bag_messages(cold_bag)
     assert '/mobile_device/imu_sensor_data' in cold and '/rotate_app/rotation' in cold
     assert '/probe' not in warm
     assert sorted(warm) == sorted(cold)
@@ -51,19 +53,23 @@ def test_warm_world_gives_the_cold_recording(tmp_path):
             assert x == y, '%s message %d (time, bytes) differs warm and cold' % (topic, i)
 
 
-def test_warm_and_cold_farms_agree_on_the_examples(tmp_path):
+def test_warm_and_cold_farms_agree_on_the_examples(example_farm):
+    """The warm farm is the session's over every example (fixtures/example_farm.py); a cold
+    farm runs five of them: compass (and its failing variant), the in-call app, the
+    battery world's own launch file, two phones."""
     files = [os.path.join(EX, f) for f in ('compass.yaml', 'compass_fails.yaml',
                                            'incall_proximity.yaml', 'battery_saver.yaml',
                                            'nfc_vcard.yaml')]
-    rc_w, warm = run_scenario('--jobs', '2', *files, timeout=900)
+    warm = example_farm.out
     rc_c, cold = run_scenario('--jobs', '2', '--cold', *files, timeout=900)
-    assert rc_w == rc_c == 1, warm + cold           # compass_fails fails
+    assert example_farm.rc == rc_c == 1, warm + cold           # compass_fails fails
     for f in files:
         name = os.path.basename(f)
-        w, c = verdicts(warm, '[%s] ' % name), verdicts(cold, '[%s] ' % name)
+        w, c = example_farm.verdicts(name), verdicts(cold, '[%s] ' % name)
         assert w and w == c, (name, warm, cold)
     # warm: a start-up per scenario, all of them printed
-    assert len(re.findall(r'^\[\S+\] start-up: ', warm, re.M)) == len(files), warm
+    n = len([f for f in os.listdir(EX) if f.endswith('.yaml')])
+    assert len(re.findall(r'^\[\S+\] start-up: ', warm, re.M)) == n, warm
 
 
 def test_reload_world_refuses_bad_requests_and_keeps_serving(tmp_path):

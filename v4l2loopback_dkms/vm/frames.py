@@ -87,4 +87,7 @@ def write_cache(path, width, height):
 
 if __name__ == '__main__':
     import sys
-    write_cache(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]))
+    # frames.py PATH WIDTH HEIGHT [PATH WIDTH HEIGHT ...]: one process (one OpenCV import)
+    a = sys.argv[1:]
+    for i in range(0, len(a) - 2, 3):
+        write_cache(a[i], int(a[i + 1]), int(a[i + 2]))

@@ -2,8 +2,9 @@
 """The checks that run inside the test VM (called by guest_test.sh, as root, in the chroot).
 
 The ROS core (rosmaster + rosout), a publisher of known frames (frames.py) and two
-image_sinks start at once: one for the pristine module (loaded as /dev/video5), one for
-/dev/video0, which does not exist until the patched module is loaded.
+image_sinks start at once (the Python ones forked from this process after it imported
+OpenCV and rospy once: see ``Forked``): one for the pristine module (loaded as
+/dev/video5), one for /dev/video0, which does not exist until the patched module is loaded.
 
 Phase 1, the pristine Debian module (exclusive_caps=1, max_buffers=2): image_sink with
 io_method write streams, a reader stays open, a second image_sink (mmap) is refused while
@@ -64,11 +65,18 @@ def metric(name, value):
 
 
 class Proc(object):
-    def __init__(self, name, argv):
+    """A process of the test, its output in TMP/NAME.log. ``argv``: a command, run with
+    subprocess; ``script``: a Python file, run as __main__ in a child forked from this
+    process (see ``preload``) with ``args`` as its sys.argv[1:]."""
+
+    def __init__(self, name, argv=None, script=None, args=()):
         self.name = name
         self.log = os.path.join(TMP, name + '.log')
-        self.p = subprocess.Popen(argv, stdout=open(self.log, 'w'), stderr=subprocess.STDOUT,
-                                  start_new_session=True)
+        if script:
+            self.p = Forked(script, list(args), self.log)
+        else:
+            self.p = subprocess.Popen(argv, stdout=open(self.log, 'w'),
+                                      stderr=subprocess.STDOUT, start_new_session=True)
         RUNNING.append(self)
 
     def text(self):
@@ -98,6 +106,84 @@ class Proc(object):
         return self.p.returncode
 
 
+# --- forked Python processes -------------------------------------------------------------
+# Under TCG a Python node's start-up is most of its cost: image_sink imports OpenCV
+# (Debian's cv2 links ~360 shared libraries) and rospy, each taking the emulated guest
+# tens of seconds, for every image_sink (four of them), the publisher and the master. So
+# this process imports them once (``preload``) and runs each of those programs unchanged
+# (the node file itself, as __main__, with its own argv, session and log) in a child forked
+# from it: a separate process like the one rosrun would start, without the import cost.
+# No thread runs here while a child is forked (the fast writer's thread is joined before).
+def preload_ros():
+    """What the publisher imports (it starts on the other CPU while OpenCV loads here)."""
+    import rospy  # noqa: F401
+    import sensor_msgs.msg  # noqa: F401
+    import simvid.imageconv  # noqa: F401
+
+
+def preload():
+    """... and what image_sink imports on top."""
+    preload_ros()
+    import cv2  # noqa: F401
+    import simvid.image_sink  # noqa: F401
+
+
+class Forked(object):
+    """The Popen methods Proc uses, for a forked child that runs ``script``."""
+
+    def __init__(self, script, args, log):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        pid = os.fork()
+        if pid == 0:                                  # the child: never returns
+            code = 1
+            try:
+                os.setsid()
+                os.dup2(fd, 1)
+                os.dup2(fd, 2)
+                os.close(fd)
+                signal.signal(signal.SIGINT, signal.default_int_handler)
+                sys.argv[:] = [script] + args        # in place: rosmaster_main's default
+                sys.path[0] = os.path.dirname(os.path.abspath(script))
+                if 'rospy' in sys.modules:           # what a fresh import reads from argv
+                    sys.modules['rospy'].names.reload_mappings(sys.argv)
+                import runpy
+                try:
+                    runpy.run_path(script, run_name='__main__')
+                    code = 0
+                except SystemExit as e:
+                    code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+                import atexit
+                atexit._run_exitfuncs()
+            except BaseException:
+                import traceback
+                traceback.print_exc()
+            finally:
+                try:
+                    sys.stdout.flush()
+                    sys.stderr.flush()
+                finally:
+                    os._exit(code)
+        os.close(fd)
+        self.pid, self.script, self.returncode = pid, script, None
+
+    def poll(self):
+        if self.returncode is None:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout=None):
+        end = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if end is not None and time.monotonic() > end:
+                raise subprocess.TimeoutExpired(self.script, timeout)
+            time.sleep(0.05)
+        return self.returncode
+
+
 def module(which, device, **params):
     subprocess.call(['rmmod', 'v4l2loopback'], stderr=subprocess.DEVNULL)
     args = ['insmod', '/run/vmtest/v4l2loopback-%s.ko' % which]
@@ -110,14 +196,12 @@ def module(which, device, **params):
     raise RuntimeError('%s did not appear after insmod' % device)
 
 
-def sink(name, rosrun=False, **params):
-    """Start image_sink: through rosrun, or (to spare the emulated guest rospack's and
-    catkin_find's start-up) by executing the node file rosrun resolves to."""
+def sink(name, **params):
+    """Start image_sink: its node file (what rosrun runs), forked from this process."""
     p = dict(device=DEV, width=W, height=H, fps=FPS)
     p.update(params)
-    cmd = (['rosrun', 'mobile_device_sim', 'image_sink'] if rosrun else
-           [sys.executable, os.path.join(ROOT, 'simvid', 'nodes', 'image_sink')])
-    return Proc(name, cmd + ['__name:=%s' % name] + ['_%s:=%s' % kv for kv in sorted(p.items())])
+    return Proc(name, script=os.path.join(ROOT, 'simvid', 'nodes', 'image_sink'),
+                args=['__name:=%s' % name] + ['_%s:=%s' % kv for kv in sorted(p.items())])
 
 
 def master_up(timeout):
@@ -435,17 +519,21 @@ def main():
     set_rate(FPS)
     # the pristine module on /dev/video5; /dev/video0 does not exist yet
     module('unpatched', DEV_UNPATCHED, exclusive_caps=1, video_nr=5, card_label='unpatched')
-    # everything that starts slowly under emulation starts at once
-    # the ROS core: rosmaster --core and rosout, what `roscore` launches. (roscore itself
-    # gives the master 10 s to come up, too little for Python under emulation.)
-    core = Proc('rosmaster', ['rosmaster', '--core', '-p', str(PORT)])
+    # the ROS core: rosmaster --core and rosout, what `roscore` launches (roscore itself
+    # gives the master 10 s to come up, too little for Python under emulation). The master
+    # is forked before the heavy imports, so it comes up while they run.
+    core = Proc('rosmaster', script='/usr/bin/rosmaster', args=['--core', '-p', str(PORT)])
     rosout = Proc('rosout', ['/usr/lib/rosout/rosout', '__name:=rosout'])
-    pub = Proc('publisher', [sys.executable, os.path.join(HERE, 'publisher.py'),
-                             '_width:=%d' % W, '_height:=%d' % H, '_rate:=%d' % FPS,
-                             '_log:=%s' % os.path.join(TMP, 'pub.log'),
-                             '_rate_file:=%s' % os.path.join(TMP, 'rate')])
+    preload_ros()
+    note('imported rospy; forking the publisher')
+    pub = Proc('publisher', script=os.path.join(HERE, 'publisher.py'),
+               args=['_width:=%d' % W, '_height:=%d' % H, '_rate:=%d' % FPS,
+                     '_log:=%s' % os.path.join(TMP, 'pub.log'),
+                     '_rate_file:=%s' % os.path.join(TMP, 'rate')])
+    preload()
+    note('imported OpenCV and image_sink; forking two image_sinks')
     sink_a = sink('sink_a_unpatched', device=DEV_UNPATCHED, io_method='write')
-    sink_c = sink('sink_c_patched', device=DEV, io_method='write', rosrun=True)
+    sink_c = sink('sink_c_patched', device=DEV, io_method='write')
     note('started roscore, publisher, two image_sinks; computing expected frames')
     EXP = frames.Expected(W, H, cache=os.path.join(ROOT, 'build', 'vm', 'expected_%dx%d.npy'
                                                    % (W, H)))

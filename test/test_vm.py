@@ -1,12 +1,13 @@
 """The real-kernel test: v4l2loopback_dkms/vm_test boots Debian's kernel under qemu (TCG
 software emulation), loads the pristine and the patched v4l2loopback module, and runs
-roscore (rosmaster + rosout), a publisher of known frames, image_sink and readers
-(v4l2-ctl, OpenCV, an mmap reader) inside. It passes only when the guest reports PASS:
+the ROS core (rosmaster --core + rosout), a publisher of known frames, image_sink and
+readers (v4l2-ctl, OpenCV, an mmap reader) inside. The guest imports OpenCV and rospy once
+and forks the Python programs from there (v4l2loopback_dkms/vm/guest_checks.py, Forked). It passes only when the guest reports PASS:
 every check in v4l2loopback_dkms/vm/guest_checks.py, including that both bugs the
 patches fix are reproduced on the pristine module.
 
-Cost: about 2-4 minutes of wall time on 2 idle cores (all of it inside qemu); set
-MDS_SKIP_VM=1 to leave it out of a quick local run (CI never sets it)."""
+Cost: a few minutes of wall time (all of it inside qemu, the built modules are cached in
+build/vm); set MDS_SKIP_VM=1 to leave it out of a quick local run (CI never sets it)."""
 import os
 import re
 import subprocess

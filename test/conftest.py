@@ -35,3 +35,12 @@ from fixtures.env_kept import _environment_kept  # noqa: E402,F401
 # (fixtures/example_farm.py)
 from fixtures.example_farm import (auto_rotate_recording, declination_sweep,  # noqa: E402,F401
                                    example_farm)
+
+
+# the suite's two lanes under `pytest -n 2 --dist loadgroup` (tools/test with no arguments):
+# the integration tests one after another on one worker, the unit tests and the qemu test on
+# the other (fixtures/lanes.py)
+def pytest_configure(config):
+    from fixtures import lanes
+    if not config.pluginmanager.has_plugin('mds_lanes'):
+        config.pluginmanager.register(lanes, 'mds_lanes')

@@ -175,3 +175,28 @@ def test_bad_world_is_a_clear_error(text, words):
 def test_missing_world_file(tmp_path):
     with pytest.raises(ModelError, match='does not exist'):
         load_world_file(str(tmp_path / 'none.world'))
+
+
+def test_package_and_model_uris_are_found_on_gazebo_model_path(tmp_path, monkeypatch):
+    """model://NAME/... and package://NAME/... (no ROS package of that name) are looked up in
+    GAZEBO_MODEL_PATH's folders, in order; found nowhere, the old answer (the model file's
+    folder), which the loader then reports as missing."""
+    from sim_world.model import Model
+    (tmp_path / 'a' / 'box' / 'meshes').mkdir(parents=True)
+    (tmp_path / 'a' / 'box' / 'meshes' / 'b.dae').write_text('<COLLADA/>')
+    (tmp_path / 'b' / 'box' / 'meshes').mkdir(parents=True)
+    (tmp_path / 'b' / 'box' / 'meshes' / 'b.dae').write_text('<COLLADA/>')
+    (tmp_path / 'b' / 'mypkg_nowhere_else' / 'm').mkdir(parents=True)
+    (tmp_path / 'b' / 'mypkg_nowhere_else' / 'm' / 'x.stl').write_text('solid x\nendsolid x\n')
+    m = Model('r', base_dir=str(tmp_path / 'urdf'))
+    monkeypatch.delenv('GAZEBO_MODEL_PATH', raising=False)
+    assert m.resolve_path('model://box/meshes/b.dae') == \
+        str(tmp_path / 'urdf' / 'box' / 'meshes' / 'b.dae')
+    monkeypatch.setenv('GAZEBO_MODEL_PATH', os.pathsep.join(
+        [str(tmp_path / 'nothing'), str(tmp_path / 'a'), str(tmp_path / 'b')]))
+    assert m.resolve_path('model://box/meshes/b.dae') == \
+        str(tmp_path / 'a' / 'box' / 'meshes' / 'b.dae')
+    assert m.resolve_path('package://mypkg_nowhere_else/m/x.stl') == \
+        str(tmp_path / 'b' / 'mypkg_nowhere_else' / 'm' / 'x.stl')
+    assert m.resolve_path('package://nopkg_at_all/m/x.stl') == \
+        str(tmp_path / 'urdf' / 'm' / 'x.stl')

@@ -580,9 +580,24 @@ class Model(object):
                     packs['rospack'] = rospkg.RosPack()
                 return os.path.join(packs['rospack'].get_path(pkg), rest)
             except Exception:  # noqa: BLE001 - rospkg raises various errors
-                return os.path.join(self.base_dir, rest)
+                return _on_model_path(pkg, rest) or os.path.join(self.base_dir, rest)
         if path.startswith('model://'):
-            return os.path.join(self.base_dir, path[len('model://'):])
+            name, _, rest = path[len('model://'):].partition('/')
+            return _on_model_path(name, rest) or \
+                os.path.join(self.base_dir, path[len('model://'):])
         if not os.path.isabs(path):
             return os.path.normpath(os.path.join(self.base_dir, path))
         return path
+
+
+def _on_model_path(name, rest):
+    """``<dir>/<name>/<rest>`` for the first entry of ``GAZEBO_MODEL_PATH`` that has it (as
+    Gazebo finds ``model://name/...``; here also ``package://name/...`` when ROS knows no
+    package of that name, e.g. pybullet_data's xarm/xarm_description with
+    ``GAZEBO_MODEL_PATH=<pybullet_data>/xarm``); None when none has it."""
+    for d in os.environ.get('GAZEBO_MODEL_PATH', '').split(os.pathsep):
+        if d:
+            cand = os.path.join(d, name, rest)
+            if os.path.exists(cand):
+                return cand
+    return None

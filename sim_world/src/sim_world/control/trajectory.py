@@ -549,7 +549,6 @@ class VelocityJointTrajectoryController(EffortJointTrajectoryController):
             raise ControllerError('%s/velocity_ff must be a dict ({<joint>: factor}), got %r'
                                   % (self.name, ff))
         self.velocity_ff = [_num(ff, j, '%s/velocity_ff' % self.name, 0.0) for j in self.joints]
-        self._des_v = [0.0] * len(self.joints)
 
     def starting(self, t):
         EffortJointTrajectoryController.starting(self, t)

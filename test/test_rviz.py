@@ -9,7 +9,6 @@ Camera display draws rviz's scene over the flycam image from the image's frame
 build/test-output/rviz.png (docs/rviz.png is one)."""
 import os
 import shutil
-import signal
 import subprocess
 import time
 
@@ -18,7 +17,7 @@ import numpy as np
 import pytest
 from pyzbar import pyzbar
 
-from fixtures.xwd import read_xwd
+from fixtures.xwd import read_xwd, screenshot, start_xvfb, stop_groups
 from sim_world.netutil import master_port  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -109,10 +108,7 @@ def test_rviz_shows_phone_camera_and_flycam(tmp_path):
     for tool in ('rviz', 'Xvfb', 'xwd'):
         if shutil.which(tool) is None:
             pytest.skip('%s is not installed (tools/setup installs rviz, xvfb, x11-apps)' % tool)
-    xvfb = subprocess.Popen(['Xvfb', '-displayfd', '1', '-screen', '0', '1280x800x24', '-nolisten',
-                             'tcp'], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-    display = ':' + xvfb.stdout.readline().decode().strip()
+    xvfb, display = start_xvfb('1280x800x24')
     port = master_port()
     env = dict(os.environ, DISPLAY=display, ROS_MASTER_URI='http://localhost:%d' % port,
                ROS_HOSTNAME='localhost')
@@ -149,11 +145,9 @@ def test_rviz_shows_phone_camera_and_flycam(tmp_path):
                     ['rosrun', 'mobile_device_sim', 'spawn_model', '-urdf', '-file', str(ball),
                      '-model', 'ball', '-x', str(BALL[0]), '-y', str(BALL[1]), '-z',
                      str(BALL[2])], env=env, stdout=log, stderr=subprocess.STDOUT)
-            r = subprocess.run(['xwd', '-root', '-silent', '-display', display],
-                               capture_output=True)
-            if r.returncode != 0 or not r.stdout:
+            rgb = screenshot(display)
+            if rgb is None:
                 continue
-            rgb = read_xwd(r.stdout)
             cv2.imwrite(shot, rgb[:, :, ::-1])
             ok, desk, outside = _panels_ok(rgb)
             if ok:
@@ -172,15 +166,7 @@ def test_rviz_shows_phone_camera_and_flycam(tmp_path):
         if spawned is not None and spawned.poll() is None:
             spawned.kill()
             spawned.wait()
-        for p in [q for q in (pub, launch, xvfb) if q is not None]:
-            try:
-                os.killpg(p.pid, signal.SIGINT)
-                p.wait(20)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                try:
-                    os.killpg(p.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
+        stop_groups((pub, launch, xvfb))
         log.close()
 
 

@@ -8,7 +8,6 @@ must point from the hinge along the joint's angle, within 3 degrees, as seen fro
 import math
 import os
 import shutil
-import signal
 import subprocess
 import time
 
@@ -16,7 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
-from fixtures.xwd import read_xwd
+from fixtures.xwd import screenshot, start_xvfb, stop_groups
 from sim_world.netutil import master_port
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -94,13 +93,6 @@ def rod_angle(rgb):
     return len(xs), math.atan2(axis[1], axis[0])
 
 
-def _shot(display):
-    r = subprocess.run(['xwd', '-root', '-silent', '-display', display], capture_output=True)
-    if r.returncode != 0 or not r.stdout:
-        return None
-    return read_xwd(r.stdout)
-
-
 def _set(env, angle):
     return subprocess.run(['rosservice', 'call', '/gazebo/set_model_configuration',
                            '{model_name: pend, joint_names: [hinge], joint_positions: [%g]}'
@@ -112,10 +104,7 @@ def test_rviz_draws_the_pendulum_at_its_joint_angle(tmp_path):
     for tool in ('rviz', 'Xvfb', 'xwd'):
         if shutil.which(tool) is None:
             pytest.skip('%s is not installed (tools/setup installs rviz, xvfb, x11-apps)' % tool)
-    xvfb = subprocess.Popen(['Xvfb', '-displayfd', '1', '-screen', '0', '900x700x24', '-nolisten',
-                             'tcp'], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-    display = ':' + xvfb.stdout.readline().decode().strip()
+    xvfb, display = start_xvfb('900x700x24')
     port = master_port()
     env = dict(os.environ, DISPLAY=display, ROS_MASTER_URI='http://localhost:%d' % port,
                ROS_HOSTNAME='localhost')
@@ -153,7 +142,7 @@ def test_rviz_draws_the_pendulum_at_its_joint_angle(tmp_path):
             end = time.time() + 60
             while time.time() < end:
                 time.sleep(1.5)
-                rgb = _shot(display)
+                rgb = screenshot(display)
                 if rgb is None:
                     continue
                 cv2.imwrite(os.path.join(OUT, 'rviz_joint.png'), rgb[:, :, ::-1])
@@ -172,13 +161,5 @@ def test_rviz_draws_the_pendulum_at_its_joint_angle(tmp_path):
         # the two pictures differ by the joint's motion
         assert seen[1.2][1] - seen[0.0][1] == pytest.approx(1.2, abs=0.1)
     finally:
-        for p in [q for q in (rsp, launch, xvfb) if q is not None]:
-            try:
-                os.killpg(p.pid, signal.SIGINT)
-                p.wait(20)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                try:
-                    os.killpg(p.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
+        stop_groups((rsp, launch, xvfb))
         log.close()

@@ -31,7 +31,7 @@ talks to ``world.physics``; the plugin (control/ros_control.py) reaches it only 
 import math
 import xml.etree.ElementTree as ET
 
-from .controllers import ControllerError, Pid
+from .controllers import ControllerError, Pid, _angle_diff
 
 __all__ = ['Transmission', 'parse_transmissions', 'RobotHWSim', 'TransmissionError']
 
@@ -200,9 +200,7 @@ class RobotHWSim(object):
         """DefaultRobotHWSim's POSITION_PID / VELOCITY_PID: the effort from the error."""
         q, qd = self.physics.joint_state(self.model, joint)
         if kind == 'position':
-            err = v - q
-            if self.joint_type(joint) == 'continuous':
-                err = math.atan2(math.sin(err), math.cos(err))
+            err = _angle_diff(v, q) if self.joint_type(joint) == 'continuous' else v - q
         else:
             err = v - qd
         self._effort(joint, self.pids[joint].compute(err, dt))
@@ -265,7 +263,8 @@ class RobotHWSim(object):
 
 class _JointPid(object):
     """control_toolbox's Pid as computeCommand(error, dt) uses it: the error's derivative is
-    its change since the last call (0 before the first), and a reset clears both."""
+    its change since the last call (from 0 at the first call, so the first step kicks by
+    ``d`` times the error over dt, as in Gazebo), and a reset clears both."""
 
     def __init__(self, pid):
         self.pid = pid

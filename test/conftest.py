@@ -44,3 +44,8 @@ def pytest_configure(config):
     from fixtures import lanes
     if not config.pluginmanager.has_plugin('mds_lanes'):
         config.pluginmanager.register(lanes, 'mds_lanes')
+
+
+# one studio and one Chromium page on it, shared by the studio extensions' browser tests
+# (test/test_studio_*.py; fixtures/studio.py)
+from fixtures.studio import shared_page, shared_studio  # noqa: E402,F401

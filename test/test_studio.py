@@ -5,7 +5,6 @@ each while it keeps serving, the page in Debian's Chromium (Playwright) with rea
 events on the translate handle, recording, running the recording, and Ctrl-C leaving no
 process behind."""
 import asyncio
-import io
 import json
 import os
 import re
@@ -18,12 +17,7 @@ import urllib.request
 import numpy as np
 import pytest
 
-from sim_world.netutil import master_port
-
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-NODE = os.path.join(ROOT, 'sim_studio', 'nodes', 'studio')
-CHROMIUM = os.environ.get('MDS_CHROMIUM', '/usr/bin/chromium')
+from fixtures.studio import data_url, open_page, png_pixels, post, start_studio
 
 pytestmark = pytest.mark.rostest
 
@@ -66,63 +60,6 @@ for line in sys.stdin:
         ('/mobile_device/battery_state', 'sensor_msgs/BatteryState')],)
 
 
-# beside the office (test_studio_world): a red pyramid that is a mesh (STL), and a pendulum
-# hinged to the world, let go 1 rad off the vertical (it swings, undamped, all along)
-EXTRA_MODELS = """
-    <model name="studio_pyramid">
-      <static>true</static>
-      <pose>4.8 -3.9 0 0 0 0</pose>
-      <link name="body">
-        <visual name="v"><geometry><mesh><uri>file://%(stl)s</uri></mesh></geometry>
-          <material><diffuse>0.9 0.1 0.1 1</diffuse></material></visual>
-      </link>
-    </model>
-    <model name="studio_pendulum">
-      <pose>4.8 -4.5 1.2 0 0 0</pose>
-      <link name="rod">
-        <pose>0 0 0 0 1.0 0</pose>
-        <inertial><pose>0 0 -0.45 0 0 0</pose><mass>1</mass>
-          <inertia><ixx>0.02</ixx><iyy>0.02</iyy><izz>0.001</izz>
-            <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
-        <visual name="rod"><pose>0 0 -0.25 0 0 0</pose>
-          <geometry><cylinder><radius>0.02</radius><length>0.5</length></cylinder></geometry>
-          <material><diffuse>0.1 0.2 0.9 1</diffuse></material></visual>
-        <visual name="bob"><pose>0 0 -0.5 0 0 0</pose>
-          <geometry><sphere><radius>0.08</radius></sphere></geometry>
-          <material><diffuse>0.1 0.2 0.9 1</diffuse></material></visual>
-      </link>
-      <joint name="hinge" type="revolute">
-        <parent>world</parent><child>rod</child>
-        <axis><xyz>0 1 0</xyz><limit><lower>-1e16</lower><upper>1e16</upper></limit></axis>
-      </joint>
-    </model>
-"""
-
-
-def pyramid_stl(path, base=0.4, height=0.5):
-    """A binary STL of a square pyramid standing on z = 0 (outward faces)."""
-    h = base / 2
-    a, b, c, d, top = (-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0), (0, 0, height)
-    tris = [(a, c, b), (a, d, c), (a, b, top), (b, c, top), (c, d, top), (d, a, top)]
-    data = bytearray(b'pyramid'.ljust(80) + len(tris).to_bytes(4, 'little'))
-    for t in tris:
-        data += np.array([0, 0, 0] + [x for p in t for x in p], '<f4').tobytes() + b'\0\0'
-    with open(path, 'wb') as f:
-        f.write(bytes(data))
-
-
-def studio_world(d):
-    """office.world with EXTRA_MODELS (its media by absolute path)."""
-    office = os.path.join(ROOT, 'sim_world', 'worlds', 'office.world')
-    text = open(office).read().replace('<texture>media/', '<texture>%s/' % os.path.join(
-        os.path.dirname(office), 'media'))
-    stl = str(d / 'pyramid.stl')
-    pyramid_stl(stl)
-    i = text.rindex('</world>')
-    path = str(d / 'studio_test.world')
-    with open(path, 'w') as f:
-        f.write(text[:i] + EXTRA_MODELS % {'stl': stl} + text[i:])
-    return path
 
 
 def descendants(pid):
@@ -132,48 +69,8 @@ def descendants(pid):
 
 @pytest.fixture(scope='module')
 def studio(tmp_path_factory):
-    d = tmp_path_factory.mktemp('studio')
-    port = master_port()
-    env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port,
-               ROS_HOSTNAME='localhost', ROS_LOG_DIR=str(d / 'roslog'))
-    env.pop('RAY_ADDRESS', None)
-    log = open(str(d / 'studio.log'), 'w+')
-    # started with SIGINT ignored, as a background job of a non-interactive shell (CI) starts
-    # it: Ctrl-C must still stop it (test_ctrl_c_leaves_no_process_behind)
-    p = subprocess.Popen([sys.executable, NODE, '--port', '0', 'camera_rate:=5',
-                          'flycam:=false', 'seed:=1', 'world:=' + studio_world(d)],
-                         env=env, stdout=log,
-                         stderr=subprocess.STDOUT, start_new_session=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
-    url, deadline = None, time.monotonic() + 120
-    while url is None:
-        text = open(log.name).read()
-        m = re.search(r'^studio: (http://127\.0\.0\.1:\d+/)$', text, re.M)
-        if m:
-            url = m.group(1)
-        elif p.poll() is not None or time.monotonic() > deadline:
-            p.kill()
-            raise AssertionError('the studio did not start:\n' + text[-3000:])
-        time.sleep(0.1)
-    s = dict(url=url, env=env, proc=p, log=log.name, dir=d)
-    try:
-        while 'mobile_device' not in scene_names(url):        # the launch file spawns it
-            assert time.monotonic() < deadline, 'no phone in the scene'
-            time.sleep(0.2)
-        yield s
-    finally:
-        if 'getter' in s:
-            s['getter'].stdin.close()
-            s['getter'].wait(10)
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
-            p.wait()
-        log.close()
+    yield from start_studio(tmp_path_factory.mktemp('studio'))
 
-
-def scene_names(url):
-    with urllib.request.urlopen(url + 'api/scene', timeout=30) as r:
-        return [m['name'] for m in json.loads(r.read())['models']]
 
 
 def probe(studio, request):
@@ -194,16 +91,6 @@ def model_state(studio, model='mobile_device'):
     ok, pos, quat = probe(studio, 'state ' + model)
     assert ok
     return pos, quat
-
-
-def post(studio, body):
-    req = urllib.request.Request(studio['url'] + 'api/cmd', data=body.encode(),
-                                 method='POST')
-    try:
-        with urllib.request.urlopen(req, timeout=60) as r:
-            return r.status, json.loads(r.read())
-    except urllib.error.HTTPError as e:
-        return e.code, json.loads(e.read())
 
 
 async def ws_session(url, commands):
@@ -305,38 +192,9 @@ def test_commands_over_ws_and_post_move_the_world(studio):
     assert np.allclose(model_state(studio)[0], [3.2, -2.05, 1.05], atol=1e-3)
 
 
-def png_pixels(png):
-    from PIL import Image
-    return np.asarray(Image.open(io.BytesIO(png)).convert('RGB')).astype(int)
-
-
-def data_url(page, canvas_js):
-    """The PNG bytes of a canvas, as the page holds them (no screenshot of an element that
-    keeps changing)."""
-    import base64
-    url = page.evaluate('(%s).toDataURL("image/png")' % canvas_js)
-    assert url.startswith('data:image/png;base64,'), url[:80]
-    return base64.b64decode(url.split(',', 1)[1])
-
-
 @pytest.fixture(scope='module')
 def page(studio):
-    from playwright.sync_api import sync_playwright
-    assert os.access(CHROMIUM, os.X_OK), "Debian's chromium is missing"
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=['--no-sandbox'])
-        pg = b.new_page(viewport={'width': 1280, 'height': 760})
-        errors = []
-        pg.on('pageerror', lambda e: errors.append(str(e)))
-        outside = []
-        pg.on('request', lambda r: None if r.url.startswith(studio['url'].rstrip('/'))
-              or r.url.startswith(('ws://127.0.0.1', 'blob:', 'data:'))
-              else outside.append(r.url))
-        pg.goto(studio['url'], wait_until='domcontentloaded')
-        pg.wait_for_function('window.studio && window.studio.frames > 2', timeout=60000)
-        pg.errors, pg.outside = errors, outside
-        yield pg
-        b.close()
+    yield from open_page(studio)
 
 
 def test_the_page_draws_the_world_and_the_camera(studio, page):

@@ -9,7 +9,7 @@ import json
 import math
 
 __all__ = ['VERSION', 'MAX_BYTES', 'OPS', 'WORLD_OPS', 'Command', 'ProtocolError', 'parse',
-           'check', 'reply', 'error']
+           'check', 'reply', 'error', 'register']
 
 VERSION = 1
 MAX_BYTES = 256 * 1024          # a command's text (a scenario to run included)
@@ -20,7 +20,8 @@ MODES = ('always', 'eventually')
 CHECKS = ('equals', 'near', 'between')
 
 # field kinds: 'str', 'num', 'num>0', 'num>=0', 'unit' (0..1), 'vec3', 'bool', 'values'
-# (name -> number), a tuple of allowed strings
+# (name -> number), 'list' (a JSON array), 'object' (a JSON object), 'int>=0', a tuple of
+# allowed strings
 OPS = {
     # op: (required fields, optional fields with defaults, changes the world, doc)
     'set_pose': ({'model': 'str', 'position': 'vec3'}, {'rpy': [0.0, 0.0, 0.0]}, True,
@@ -53,9 +54,11 @@ OPS = {
     'run': ({'yaml': 'str'}, {}, False, 'run a scenario with run_scenario; its verdicts'),
 }
 #: ops that need control (they change the world or the recording)
-WORLD_OPS = frozenset(op for op, spec in OPS.items() if spec[2]) | {'record', 'run', 'expect'}
+WORLD_OPS = set(op for op, spec in OPS.items() if spec[2]) | {'record', 'run', 'expect'}
 #: ops that take a model that must be in the world
-MODEL_OPS = ('set_pose', 'touch', 'press_button', 'fault')
+MODEL_OPS = {'set_pose', 'touch', 'press_button', 'fault'}
+#: op -> fn(fields) raising ProtocolError: checks across an op's fields (extensions' too)
+FIELD_CHECKS = {}
 
 
 class ProtocolError(ValueError):
@@ -103,6 +106,18 @@ def _kind(kind, v, where):
             raise ProtocolError('%s: expected [x, y, z] of three finite numbers, got %s'
                                 % (where, _show(v)))
         return [float(x) for x in v]
+    if kind == 'list':
+        if not isinstance(v, list):
+            raise ProtocolError('%s: expected a JSON array, got %s' % (where, _show(v)))
+        return v
+    if kind == 'object':
+        if not isinstance(v, dict):
+            raise ProtocolError('%s: expected a JSON object, got %s' % (where, _show(v)))
+        return v
+    if kind == 'int>=0':
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ProtocolError('%s: expected a whole number >= 0, got %s' % (where, _show(v)))
+        return v
     if kind == 'values':
         if not isinstance(v, dict) or not v or not all(
                 isinstance(k, str) and _finite(x) for k, x in v.items()):
@@ -180,10 +195,40 @@ def check(obj, models=None):
         fields[k] = _kind(_OPT_KINDS[k], obj[k], '%s.%s' % (op, k)) if k in obj else default
     if op == 'expect':
         _check_expect(fields)
+    if op in FIELD_CHECKS:
+        FIELD_CHECKS[op](fields)
     if models is not None and op in MODEL_OPS and fields['model'] not in models:
         raise ProtocolError('%s.model: no model %s in the world (models: %s)'
                             % (op, _show(fields['model']), ', '.join(sorted(models))))
     return Command(op, fields, cid)
+
+
+def register(op, required, optional, changes_world, doc, kinds=None, needs_control=None,
+             takes_model=False, field_check=None):
+    """Add an op to the protocol (an extension's, sim_studio.extensions): its required fields
+    {name: kind}, its optional fields {name: default} with their kinds in ``kinds`` {name:
+    kind} (a name the core already knows keeps its kind), whether it changes the world,
+    its one-line doc. ``needs_control`` (default: ``changes_world``) puts it under control;
+    ``takes_model``: its ``model`` field must name a model in the world; ``field_check``:
+    fn(fields) raising ProtocolError for checks across fields. An op that exists is an
+    error (two extensions would shadow each other)."""
+    if op in OPS:
+        raise ValueError('studio protocol: op %s is defined twice' % op)
+    kinds = dict(kinds or {})
+    for k in optional:
+        if k not in kinds and k not in _OPT_KINDS:
+            raise ValueError('studio protocol: %s.%s has no kind' % (op, k))
+        if k in kinds and k in _OPT_KINDS and kinds[k] != _OPT_KINDS[k]:
+            raise ValueError('studio protocol: %s.%s: kind %r, but %s is %r for every op'
+                             % (op, k, kinds[k], k, _OPT_KINDS[k]))
+    _OPT_KINDS.update(kinds)
+    OPS[op] = (dict(required), dict(optional), bool(changes_world), doc)
+    if changes_world if needs_control is None else needs_control:
+        WORLD_OPS.add(op)
+    if takes_model:
+        MODEL_OPS.add(op)
+    if field_check is not None:
+        FIELD_CHECKS[op] = field_check
 
 
 def parse(text, models=None):

@@ -21,11 +21,11 @@ import time
 
 from aiohttp import WSMsgType, web
 
-from . import protocol
+from . import extensions, protocol
 from .protocol import ProtocolError
 from .recorder import Recorder, check as check_yaml
 
-__all__ = ['Studio', 'make_app', 'STATIC', 'THREE']
+__all__ = ['Studio', 'make_app', 'index_html', 'STATIC', 'THREE']
 
 STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'static')
 THREE = os.environ.get('MDS_THREE_DIR', '/usr/share/javascript/three')
@@ -101,6 +101,14 @@ class Studio(object):
         self.world_gone = None
         self._health_at = 0.0
         self.log = lambda text: print(text, flush=True)
+        self.extensions = extensions.load()
+
+    def broadcast(self, kind, obj, clients=None):
+        """One stream message ``{"v": 1, "type": kind, ...obj}`` to every client (or those
+        given), in its latest-wins slot ``kind``: an extension's stream."""
+        msg = json.dumps(dict(obj, v=protocol.VERSION, type=kind), separators=(',', ':'))
+        for c in (self.clients if clients is None else clients):
+            c.put(kind, msg)
 
     # -- the one command handler --------------------------------------------------------
     async def handle_text(self, text, client=None, local=False):
@@ -131,6 +139,9 @@ class Studio(object):
             if cmd.op == 'control':
                 return protocol.reply(cmd, control=self.holder is client and client is not None)
         try:
+            ext = extensions.handler(cmd.op)
+            if ext is not None:
+                return protocol.reply(cmd, **((await ext(self, cmd, client)) or {}))
             if cmd.op == 'scene':
                 return protocol.reply(cmd, scene=self.scene())
             if cmd.op == 'device':
@@ -402,8 +413,10 @@ def make_app(studio):
                           middlewares=[_token_middleware(studio)])
     app['studio'] = studio
 
+    page = index_html()
+
     async def index(_request):
-        return web.FileResponse(os.path.join(STATIC, 'index.html'))
+        return web.Response(text=page, content_type='text/html')
 
     async def scene(_request):
         return web.json_response(studio.scene())
@@ -488,9 +501,27 @@ def make_app(studio):
     app.router.add_static('/static/', STATIC)
     if os.path.isdir(THREE):
         app.router.add_static('/three/', THREE)
+    for mod in studio.extensions:
+        if hasattr(mod, 'routes'):
+            mod.routes(app, studio)
+        if hasattr(mod, 'attach'):
+            mod.attach(studio)
     app.on_startup.append(start_stream)
     app.on_shutdown.append(stop_stream)
     return app
+
+
+def index_html():
+    """index.html with the extensions' scripts and style sheets (static/ext/*.js, *.css,
+    sorted by name) in place of its ``<!-- extensions -->`` line."""
+    with open(os.path.join(STATIC, 'index.html')) as f:
+        text = f.read()
+    ext = os.path.join(STATIC, 'ext')
+    names = sorted(os.listdir(ext)) if os.path.isdir(ext) else []
+    tags = ['<link rel="stylesheet" href="/static/ext/%s">' % n for n in names
+            if n.endswith('.css')]
+    tags += ['<script src="/static/ext/%s"></script>' % n for n in names if n.endswith('.js')]
+    return text.replace('<!-- extensions -->', '\n'.join(tags))
 
 
 def _token_middleware(studio):

@@ -42,6 +42,26 @@
   scene.add(handle);
   studio.handle = handle;
   studio.camera = camera;
+  // the page's API for the extensions (static/ext/*.js, sim_studio/extensions.py)
+  studio.scene3d = scene;
+  studio.renderer = renderer;
+  studio.orbit = orbit;
+  studio.live = true;           // false: the stream's poses are not shown (an extension
+                                // shows poses of its own, e.g. a recording's)
+  const listeners = {}, frameHooks = [];
+  // fn(message) for each stream message or reply of that type ('poses', 'hello', 'device',
+  // 'recording', 'control', 'reply', an extension's own stream type; 'camera': the image URL)
+  studio.on = (type, fn) => { (listeners[type] = listeners[type] || []).push(fn); };
+  const emit = (type, m) => { for (const fn of listeners[type] || []) fn(m); };
+  studio.onFrame = (fn) => { frameHooks.push(fn); };     // fn(now) before each render
+  // a panel of the right-hand column: its heading and an empty element (returned)
+  studio.panel = (title, testid) => {
+    const h = document.createElement('h3'), d = document.createElement('div');
+    h.textContent = title;
+    if (testid) d.dataset.testid = testid;
+    $('ext').append(h, d);
+    return d;
+  };
 
   function resize() {
     const w = canvas.clientWidth, h = canvas.clientHeight;
@@ -460,6 +480,7 @@
         }
       }
     }
+    for (const fn of frameHooks) fn(performance.now());
     applyView();
     if (studio.view !== 'camera') orbit.update();
     renderer.render(scene, camera);
@@ -489,6 +510,7 @@
         cameraUrl = url;
         studio.cameraFrames++;
         $('camera').onload = drawDisplay;
+        emit('camera', url);
         return;
       }
       const m = JSON.parse(ev.data);
@@ -497,8 +519,10 @@
         delete pending[m.id];
         if (r) r(m); else showError(m);
       } else if (m.type === 'poses') {
-        studio.poses = m.poses;
-        studio.links = m.links || {};
+        if (studio.live) {
+          studio.poses = m.poses;
+          studio.links = m.links || {};
+        }
         if (studio.ready && !studio.asking &&
             Object.keys(m.poses).some((n) => !studio.models[n])) {
           studio.asking = true;          // a model spawned since: its description
@@ -538,6 +562,7 @@
         $('control').textContent = m.you ? 'you have control' :
           (m.holder ? 'read-only (' + m.holder + ' has control)' : '');
       }
+      emit(m.type, m);
     };
     ws.onclose = () => {
       $('status').textContent = 'disconnected from the studio; reconnecting';
@@ -598,6 +623,10 @@
     return d;
   }
 
+  studio.select = select;
+  studio.build = build;
+  studio.showError = showError;
+  studio.line = line;
   connect();
   requestAnimationFrame(frame);
 })();

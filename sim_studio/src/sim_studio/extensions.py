@@ -1,0 +1,49 @@
+"""The studio's extensions: the parts of the page beyond the core (server.py, studio.js)
+each in a module of their own, registered here.
+
+An extension is a module ``sim_studio.<name>`` (its name in ``NAMES``) with:
+
+- ``OPS``: ``{op: dict(required={field: kind}, optional={field: default}, kinds={field:
+  kind}, changes_world=bool, doc='one line', needs_control=None, takes_model=False,
+  field_check=None)}``: its commands, added to the protocol (``protocol.register``), so
+  they are checked, documented and refused like the core's;
+- ``async def handle(studio, cmd, client)``: carries out one of its ops, returns the reply's
+  fields (a dict) or raises an exception whose text is the error sent back;
+- optionally ``routes(app, studio)``: extra HTTP routes (under ``/api/<name>/`` by
+  convention), and ``attach(studio)``: called once when the server is made.
+
+Its page script is ``static/ext/<name>.js`` (with ``static/ext/<name>.css`` if any):
+``server.index_html`` adds every script and style sheet there to the page, sorted by name,
+after studio.js, so an extension needs no edit of index.html. It uses ``window.studio``
+(studio.js: ``send``, ``on``, ``onFrame``, ``scene3d``, ``panel``...)."""
+import importlib
+
+from . import protocol
+
+__all__ = ['NAMES', 'load', 'handler']
+
+#: the extension modules, in the order they are loaded
+NAMES = ()
+
+_HANDLERS = {}
+_MODULES = []
+
+
+def load(names=None):
+    """Import the extensions (once) and register their ops; the modules, in order."""
+    if _MODULES and names is None:
+        return list(_MODULES)
+    for name in (NAMES if names is None else names):
+        mod = importlib.import_module('sim_studio.' + name)
+        for op, spec in getattr(mod, 'OPS', {}).items():
+            spec = dict(spec)
+            protocol.register(op, spec.pop('required', {}), spec.pop('optional', {}),
+                              spec.pop('changes_world', False), spec.pop('doc'), **spec)
+            _HANDLERS[op] = mod.handle
+        _MODULES.append(mod)
+    return list(_MODULES)
+
+
+def handler(op):
+    """The coroutine function that carries out ``op``, if an extension has it."""
+    return _HANDLERS.get(op)

@@ -1,6 +1,6 @@
 """The suite's two lanes (fixtures/lanes.py): the rule, and a real ``pytest -n 2 --dist
 loadgroup`` over a small tree that puts every integration test on one worker and the unit
-tests and the VM test on the other."""
+tests and the VM test (and the other light files) on the other."""
 import json
 import os
 import subprocess
@@ -18,6 +18,8 @@ def test_the_rule():
     assert lanes.lane('test/unit/test_yuv.py::test_x') == lanes.LIGHT
     assert lanes.lane('test/test_vm.py::test_v4l2loopback_and_image_sink_in_a_real_kernel') \
         == lanes.LIGHT
+    assert lanes.lane('test/test_bench.py::test_bench_quick[scenario]') == lanes.LIGHT
+    assert lanes.lane('test/test_tinyros.py::test_fuzz') == lanes.LIGHT
     assert lanes.lane('test/test_core.py::test_a') == lanes.INTEGRATION
     assert lanes.lane('test/test_readme_commands.py::test_p[docs/unit/x.md]') == \
         lanes.INTEGRATION

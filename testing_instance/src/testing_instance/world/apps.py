@@ -16,11 +16,11 @@ import time
 
 from ..scenario.results import RunError
 from .appwatch import AppHung, AppWatch
-from .procs import PreApp, Proc, outbound, poll, tail
+from .procs import PreApp, Proc, env_seconds, outbound, poll, tail
 
 #: wall s an app may leave bytes unread on its connections before the run calls it hung
 #: (the environment's MDS_APP_HANG_AFTER instead: the tests that wait it out set it small)
-HANG_AFTER = float(os.environ.get('MDS_APP_HANG_AFTER', 10.0))
+HANG_AFTER = env_seconds('MDS_APP_HANG_AFTER', 10.0)
 
 __all__ = ['Apps', 'python_node']
 

@@ -396,9 +396,27 @@ def rosout_path():
 _ROSOUT = None
 
 
+def env_seconds(name, default):
+    """A duration in s from the environment variable ``name``: ``default`` when it is unset,
+    and also when it is not a finite number > 0, then with one line on stderr naming the
+    variable and its value (a bad knob must not stop the run with a traceback at import)."""
+    text = os.environ.get(name)
+    if text is None:
+        return default
+    try:
+        v = float(text)
+    except ValueError:
+        v = float('nan')
+    if not (v > 0 and v != float('inf')):
+        sys.stderr.write('%s=%r is not a number of seconds > 0; using %g\n'
+                         % (name, text, default))
+        return default
+    return v
+
+
 #: s a run's processes have to end on their SIGINT, then SIGKILL (the environment's
 #: MDS_STOP_GRACE instead: the tests that wait it out on purpose set it small)
-STOP_GRACE = float(os.environ.get('MDS_STOP_GRACE', 10.0))
+STOP_GRACE = env_seconds('MDS_STOP_GRACE', 10.0)
 
 
 def deaf_warning(who, after=''):

@@ -101,6 +101,9 @@ class Studio(object):
         self.world_gone = None
         self._health_at = 0.0
         self.log = lambda text: print(text, flush=True)
+        # fn(cmd: Command or None, raw: the decoded object or None, reply, client, sim time,
+        # wall time) after every command is answered (an extension's log: sim_studio.study)
+        self.on_command = []
         self.extensions = extensions.load()
 
     def broadcast(self, kind, obj, clients=None):
@@ -112,8 +115,9 @@ class Studio(object):
 
     # -- the one command handler --------------------------------------------------------
     async def handle_text(self, text, client=None, local=False):
-        """Parse and carry out one command's text; returns its reply (a dict)."""
-        raw = None
+        """Parse and carry out one command's text; returns its reply (a dict), which each
+        ``on_command`` hook sees first."""
+        raw, cmd, sim, wall = None, None, self.world.clock, time.time()
         try:
             try:
                 raw = json.loads(text) if isinstance(text, (str, bytes)) and \
@@ -124,8 +128,12 @@ class Studio(object):
         except ProtocolError as e:
             self.log('studio: refused a command from %s: %s'
                      % (client.name if client else 'POST /api/cmd', e))
-            return protocol.error(str(e), raw=raw)
-        return await self.handle(cmd, client, local)
+            rep = protocol.error(str(e), raw=raw)
+        else:
+            rep = await self.handle(cmd, client, local)
+        for fn in self.on_command:
+            fn(cmd, raw, rep, client, sim, wall)
+        return rep
 
     def _models(self):
         names = self.world.model_names()
@@ -163,7 +171,8 @@ class Studio(object):
                 extra = await loop.run_in_executor(None, self._apply, cmd)
         except Exception as e:  # noqa: BLE001 - a refused service: one error back
             self.log('studio: %s failed: %s' % (cmd.op, e))
-            return protocol.error(str(e), cmd)
+            # an extension's exception may carry more of the reply (``reply``: {field: value})
+            return dict(getattr(e, 'reply', None) or {}, **protocol.error(str(e), cmd))
         return protocol.reply(cmd, **(extra or {}))
 
     async def _device_op(self, on, client):

@@ -1,0 +1,158 @@
+"""The studio's study mode (sim_studio.study), without a roscore: a task list, a session's
+action log through the server's command path (Studio.on_command) with sim and wall times,
+time on task, success, error and undo counts per task as CSV, undo, and the replay of a
+session's world commands (timed against the world's clock, and step by step)."""
+import asyncio
+import csv
+import io
+import json
+import sys
+
+import pytest
+
+from sim_studio import extensions, study
+from sim_studio.study import parse_tasks
+
+sys.path.insert(0, __file__.rsplit('/', 1)[0])
+from test_studio_protocol import run, studio as make_studio  # noqa: E402
+
+
+def cmd(**kw):
+    return json.dumps(dict({'v': 1}, **kw))
+
+
+@pytest.fixture
+def s():
+    extensions.load()
+    st = make_studio()
+    study.attach(st)           # make_app does it
+    assert st.study.on_command in st.on_command
+    return st
+
+
+def send(st, **kw):
+    return run(st.handle_text(cmd(**kw)))
+
+
+def test_task_lists_from_yaml_json_or_lines():
+    assert parse_tasks('- find the desk\n- {name: touch, text: touch the screen}') == [
+        {'name': 'find the desk', 'text': 'find the desk'},
+        {'name': 'touch', 'text': 'touch the screen'}]
+    assert parse_tasks('{"tasks": ["a", "b"]}') == [{'name': 'a', 'text': 'a'},
+                                                    {'name': 'b', 'text': 'b'}]
+    assert [t['name'] for t in parse_tasks('put the phone down\n\nturn it over: face down\n')] \
+        == ['put the phone down', 'turn it over: face down']
+    with pytest.raises(ValueError, match='task 2'):
+        parse_tasks('- a\n- [1, 2]')
+    with pytest.raises(ValueError, match='no tasks'):
+        parse_tasks('  \n')
+
+
+def test_a_session_logs_every_command_and_counts_per_task(s, tmp_path):
+    w = s.world
+    f = tmp_path / 'tasks.yaml'
+    f.write_text('- move the phone\n- touch the screen\n')
+    assert send(s, op='study_tasks', tasks_file=str(f))['ok']
+    assert not send(s, op='study_task', action='start')['ok']       # no session yet
+    assert send(s, op='study_start', person='P1')['session'] == 0
+    w.clock = 10.0
+    assert send(s, op='study_task', action='start')['task'] == 0
+    w.clock = 11.0
+    send(s, op='set_pose', model='mobile_device', position=[1, 2, 3])
+    w.clock = 11.5
+    send(s, op='set_pose', model='nobody', position=[1, 2, 3])      # refused: an error
+    send(s, op='fly')                                                # unknown op: an error
+    w.clock = 12.0
+    send(s, op='set_pose', model='mobile_device', position=[4, 5, 6], rpy=[0, 0, 1])
+    rep = send(s, op='study_undo')                                   # back to [1, 2, 3]
+    assert rep['ok'] and rep['applied']['position'] == [1.0, 2.0, 3.0]
+    assert w.calls[-1][:3] == ('set_pose', 'mobile_device', [1.0, 2.0, 3.0])
+    rep = send(s, op='study_undo')          # back to the pose when the session started
+    assert rep['ok'] and w.calls[-1][:3] == ('set_pose', 'mobile_device', [1.0, 2.0, 3.0])
+    assert not send(s, op='study_undo')['ok']                        # nothing left: an error
+    w.clock = 14.0
+    assert send(s, op='study_task', action='finish')['ok']
+    assert send(s, op='study_task', action='start')['task'] == 1
+    send(s, op='touch', x=0.5, y=0.5)
+    w.clock = 15.0
+    assert send(s, op='study_task', action='give_up')['ok']
+    assert send(s, op='study_end')['ok']
+    log = s.study.sessions[0].log
+    assert [e['op'] for e in log] == [
+        'study_start', 'study_task', 'set_pose', 'set_pose', 'fly', 'set_pose', 'study_undo', 'study_undo',
+        'study_undo', 'study_task', 'study_task', 'touch', 'study_task', 'study_end']
+    assert log[2]['sim'] == 11.0 and log[2]['fields']['position'] == [1.0, 2.0, 3.0]
+    assert log[2]['wall'] > 1e9 and log[4]['ok'] is False and 'unknown op' in log[4]['error']
+    assert log[2]['task'] == 0 and log[0]['task'] is None
+    rows = list(csv.DictReader(io.StringIO(s.study.csv())))
+    assert [(r['person'], r['task'], r['result'], r['success'], r['actions'], r['errors'],
+             r['undos'], r['sim_time_on_task_s']) for r in rows] == [
+        ('P1', '1', 'success', '1', '7', '3', '2', '4.000'),
+        ('P1', '2', 'gave_up', '0', '1', '0', '0', '1.000')]
+    assert float(rows[0]['time_on_task_s']) >= 0
+    lines = s.study.log_csv().splitlines()
+    assert len(lines) == 1 + len(log) and lines[0].startswith('person,session,i,wall,sim')
+
+
+def test_a_session_replays_its_world_commands_timed_and_step_by_step(s):
+    w = s.world
+    send(s, op='study_tasks', tasks_text='- one')
+    send(s, op='study_start', person='P2')
+    w.clock = 5.0
+    send(s, op='set_pose', model='mobile_device', position=[1, 0, 0])
+    send(s, op='pause')                                    # time control: not replayed
+    w.clock = 5.5
+    send(s, op='press_button', button='power')
+    send(s, op='set_pose', model='nobody', position=[1, 0, 0])      # refused: not replayed
+    w.clock = 6.0
+    send(s, op='set_environment', values={'temperature': 30})
+    send(s, op='study_end')
+    w.calls.clear()
+    assert send(s, op='study_replay', session=0, mode='step')['replay']['n'] == 3
+    rep = send(s, op='study_next')
+    assert rep['ok'] and rep['sent']['op'] == 'set_pose' and (rep['i'], rep['n']) == (1, 3)
+    assert w.calls == [('set_pose', 'mobile_device', [1.0, 0.0, 0.0], [0.0, 0.0, 0.0])]
+    send(s, op='study_next')
+    send(s, op='study_next')
+    assert [c[0] for c in w.calls] == ['set_pose', 'press_button', 'set_environment']
+    assert 'done' in send(s, op='study_next')['error']
+    assert not send(s, op='study_replay', session=3, mode='step')['ok']
+    # timed: each command when the world's clock reaches its sim time after the first's
+    w.calls.clear()
+
+    async def timed():
+        w.clock = 100.0
+        rep = await s.handle_text(cmd(op='study_replay', session=0, mode='timed'))
+        assert rep['ok']
+        seen = []
+        for t, n in ((100.2, 1), (100.49, 1), (100.5, 2), (100.8, 2), (101.0, 3)):
+            w.clock = t
+            await asyncio.sleep(0.1)              # not early ...
+            for _ in range(100):                  # ... and on time (under load: soon)
+                if len(w.calls) >= n:
+                    break
+                await asyncio.sleep(0.02)
+            seen.append([c[0] for c in w.calls])
+        return seen
+    seen = run(timed())
+    assert seen == [['set_pose'], ['set_pose'], ['set_pose', 'press_button'],
+                    ['set_pose', 'press_button'],
+                    ['set_pose', 'press_button', 'set_environment']]
+    # the replayed commands are not logged as actions of a session
+    assert len(s.study.sessions) == 1 and s.study.session is None
+
+
+def test_csv_route(s):
+    from test_studio_protocol import serve
+    send(s, op='study_tasks', tasks_text='- a\n- b')
+    send(s, op='study_start', person='P3')
+    send(s, op='study_task', action='start')
+
+    async def fn(c):
+        r = await c.get('/api/study/csv')
+        return r.status, r.headers['Content-Disposition'], await r.text()
+    status, disp, text = serve(s, fn)
+    assert status == 200 and 'study.csv' in disp
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert [(r['task'], r['result']) for r in rows] == [('1', 'unfinished'),
+                                                        ('2', 'not started')]

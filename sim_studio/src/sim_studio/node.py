@@ -29,6 +29,9 @@ def parser():
     p.add_argument('--camera-rate', type=float, default=15.0,
                    help='camera panel frames per second at most')
     p.add_argument('--camera-topic', default='/mobile_device/image_raw')
+    p.add_argument('--foxglove', nargs='?', const='', metavar='PORT',
+                   help='also serve the scene, tf, images and location to Foxglove / '
+                        'Lichtblick on ws://127.0.0.1:PORT (default 8765; foxglove_server.py)')
     p.add_argument('args', nargs='*', metavar='name:=value', help='launch file arguments')
     return p
 
@@ -92,6 +95,8 @@ def main(argv=None):
     # not rospy.myargv: it drops every name:=value, and those are the launch arguments
     argv = list(sys.argv if argv is None else argv)[1:]
     a = parser().parse_args(argv)
+    from .foxglove_server import split_port
+    a.foxglove, a.args = split_port(a.foxglove, a.args)
     bad = [x for x in a.args if ':=' not in x]
     if bad:
         print('studio: launch arguments are name:=value, got %s' % ' '.join(bad), flush=True)
@@ -105,6 +110,7 @@ def main(argv=None):
     run_dir = tempfile.mkdtemp(prefix='studio-')
     started = None
     token = None
+    fox = None
     if a.host not in ('127.0.0.1', 'localhost', '::1'):
         token = secrets.token_urlsafe(16)
     try:
@@ -146,6 +152,9 @@ def main(argv=None):
         site = web.TCPSite(runner, a.host, a.port)
         loop.run_until_complete(site.start())
         port = runner.addresses[0][1]
+        if a.foxglove is not None:
+            from .foxglove_server import start as start_foxglove
+            fox = start_foxglove(studio, rospy, a.foxglove, loop)
         host = a.host if ':' not in a.host else '[%s]' % a.host
         print('studio: http://%s:%d/%s' % (host, port, '?token=%s' % token if token else ''),
               flush=True)
@@ -156,6 +165,8 @@ def main(argv=None):
         except KeyboardInterrupt:
             pass
         finally:
+            if fox is not None:
+                fox.stop()
             loop.run_until_complete(runner.cleanup())
             world.close()
             if studio.device is not None:

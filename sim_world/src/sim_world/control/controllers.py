@@ -146,6 +146,14 @@ class Controller(object):
     def claimed(self):
         return list(self.joints) if self.INTERFACE is not None else []
 
+    def read_states(self):
+        """[hw.state(joint)] of this controller's joints: one read of them all when the
+        hardware has ``states`` (RobotHWSim: one physics call)."""
+        many = getattr(self.hw, 'states', None)
+        if many is not None:
+            return many(self.joints)
+        return [self.hw.state(j) for j in self.joints]
+
 
 class JointStateController(Controller):
     TYPE = 'joint_state_controller/JointStateController'
@@ -178,7 +186,7 @@ class JointStateController(Controller):
         self.next_time += 1.0 / self.publish_rate
         if self.next_time <= t:
             self.next_time = t + 1.0 / self.publish_rate
-        st = [self.hw.state(j) for j in self.joints]
+        st = self.read_states()
         self.last = (t, list(self.joints), [s[0] for s in st], [s[1] for s in st],
                      [s[2] for s in st])
         self.samples += 1

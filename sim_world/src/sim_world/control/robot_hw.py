@@ -146,10 +146,14 @@ class RobotHWSim(object):
         return sorted(self.pids)
 
     def all_joints(self):
+        return list(self.all_joints_view())
+
+    def all_joints_view(self):
+        """all_joints() without the copy (not to be changed)."""
         if self._movable is None:      # the model's joints do not change while it lives
             self._movable = [j for j in self.physics.joint_names(self.model)
                              if self.physics.joint(self.model, j).type in MOVABLE]
-        return list(self._movable)
+        return self._movable
 
     def joint_type(self, joint):
         return self.physics.joint(self.model, joint).type
@@ -169,8 +173,27 @@ class RobotHWSim(object):
             v = k[2]
         return q, v, self.efforts.get(joint, 0.0)
 
+    def states(self, joints):
+        """[state(joint) for joint in joints], the joints read from the physics in one call."""
+        now = self.world.sim_time
+        seen, kin, efforts = self._seen, self._kin, self.efforts
+        out = []
+        for j, (q, v) in zip(joints, self.physics.joint_states_of(self.model, joints)):
+            seen[j] = (now, q)                 # nothing moves it until the write
+            k = kin.get(j)
+            if k is not None:
+                v = k[2]
+            out.append((q, v, efforts.get(j, 0.0)))
+        return out
+
     def command(self, joint, kind, value):
         self._pending[joint] = (kind, float(value))
+
+    def commands(self, joints, kind, values):
+        """command(joint, kind, value) of each joint with its value."""
+        pending = self._pending
+        for j, v in zip(joints, values):
+            pending[j] = (kind, float(v))
 
     def release(self, joint):
         self._pending.pop(joint, None)
@@ -183,12 +206,6 @@ class RobotHWSim(object):
             self.physics.set_joint_dynamics(self.model, joint, damping=damping,
                                             friction=friction)
         self.physics.clear_joint_efforts(self.model, joint, key=KEY)
-
-    def _now_at(self, joint, seen, now):
-        """The joint's position now: as a controller read it in this update, else read."""
-        s = seen.get(joint)
-        return s[1] if s is not None and s[0] == now else \
-            self.physics.joint_state(self.model, joint)[0]
 
     def _effort(self, joint, e):
         lim = self.physics.joint(self.model, joint).effort
@@ -232,28 +249,33 @@ class RobotHWSim(object):
             elif kind == 'velocity':
                 ph.set_joint_velocity(m, joint, v)
         if positions:
+            held, kin = self._held, self._kin
+            off = False             # a joint more than KINEMATIC_TOLERANCE off its command
             for j, q in positions.items():
-                if j not in self._held:
+                if j not in held:
                     jj = self.physics.joint(m, j)
-                    self._held[j] = (jj.damping, jj.friction)
+                    held[j] = (jj.damping, jj.friction)
                     # no damping while held: the hold motor's force does not need it, and
                     # the model then costs no per-step motor update
                     ph.set_joint_dynamics(m, j, damping=0.0, friction=KINEMATIC_HOLD)
-                k = self._kin.get(j)
+                k = kin.get(j)
                 v = (q - k[1]) / (now - k[0]) if k is not None and now > k[0] else 0.0
-                self._kin[j] = (now, q, v)
+                kin[j] = (now, q, v)
+                if not off:
+                    s = seen.get(j)
+                    at = s[1] if s is not None and s[0] == now else ph.joint_state(m, j)[0]
+                    off = abs(at - q) > KINEMATIC_TOLERANCE
             # teleport only when a joint is off its command by more than
             # KINEMATIC_TOLERANCE (a kinematic move costs a forward kinematics pass of the
             # whole model; Bullet's motor holds a joint within 1e-6 rad for several steps,
             # ODE's for none), and then every kinematic joint to its command: the same
             # joint values every step of a hold (ODE reuses the pass for them)
-            if not any(abs(self._now_at(j, seen, now) - q) > KINEMATIC_TOLERANCE
-                       for j, q in positions.items()):
+            if not off:
                 positions = {}
         if positions:
-            keep = dict((j, ph.joint_state(m, j)[1]) for j in self.all_joints()
-                        if j not in positions) if len(positions) < len(self.all_joints()) \
-                else {}
+            every = self.all_joints_view()
+            keep = dict((j, ph.joint_state(m, j)[1]) for j in every
+                        if j not in positions) if len(positions) < len(every) else {}
             ph.set_joint_positions(m, positions)
             for j, v in keep.items():
                 if v:

@@ -90,7 +90,7 @@ class State(object):
 
 class Segment(object):
     """One joint's spline from ``t0`` to ``t1``; ``goal`` and ``tol`` of the goal it serves."""
-    __slots__ = ('t0', 'duration', 'c', 'goal', 'tol')
+    __slots__ = ('t0', 'duration', 'c', 'goal', 'tol', 'p0', 'p1')
 
     def __init__(self, t0, s0, t1, s1, goal=None, tol=None):
         if t1 < t0:
@@ -102,6 +102,9 @@ class Segment(object):
         self.c = _coefficients(s0.p, s0.v or 0.0, s0.a or 0.0, s1.p, s1.v or 0.0, s1.a or 0.0,
                                self.duration, order)
         self.goal, self.tol = goal, tol
+        # where it holds before and after (a held pose is sampled there every step)
+        self.p0 = _poly(self.c, 0.0)[0]
+        self.p1 = _poly(self.c, self.duration)[0]
 
     @property
     def t1(self):
@@ -110,15 +113,23 @@ class Segment(object):
     def sample(self, t):
         dt = t - self.t0
         if dt < 0:
-            return _poly(self.c, 0.0)[0], 0.0, 0.0
+            return self.p0, 0.0, 0.0
         if dt > self.duration:
-            return _poly(self.c, self.duration)[0], 0.0, 0.0
+            return self.p1, 0.0, 0.0
         return _poly(self.c, dt)
 
 
-def find_segment(segments, t):
+def find_segment(segments, t, hint=-1):
     """Index of the segment active at ``t`` (the last one starting at or before it; the
-    first one before every start)."""
+    first one before every start). ``hint``: the index found last time, checked first, then
+    the one after it (a sample every step stays in its segment or moves to the next), before
+    a binary search."""
+    n = len(segments)
+    if 0 <= hint < n:
+        for k in (hint, hint + 1):
+            if k < n and (k == 0 or segments[k].t0 <= t) and \
+                    (k + 1 == n or segments[k + 1].t0 > t):
+                return k
     return max(0, bisect.bisect_right(segments, t, key=_start) - 1)
 
 
@@ -239,6 +250,7 @@ class JointTrajectoryController(Controller):
         self.wraps = [self.hw.joint_type(j) == 'continuous' for j in self.joints]
         self.load_gains(params)
         self.segments = None          # per joint: [Segment]
+        self.at = []                  # per joint: its segment's index at the last update
         self.goal = None              # the _Goal being executed
         self.done = [False] * len(self.joints)
         self.inbox = collections.deque()
@@ -300,29 +312,37 @@ class JointTrajectoryController(Controller):
                 s = State(q, 0.0, 0.0)
                 self.segments.append([Segment(t, s, t, s, goal)])
 
-    def sample(self, t):
-        """(positions, velocities, accelerations) of the current trajectory at ``t``."""
-        out = ([], [], [])
-        for segs in self.segments:
-            p, v, a = segs[find_segment(segs, t)].sample(t)
-            out[0].append(p)
-            out[1].append(v)
-            out[2].append(a)
+    def sample(self, t, at=None):
+        """(positions, velocities, accelerations) of the current trajectory at ``t``. ``at``:
+        a list of each joint's segment index, used as hints and set to the ones at ``t``
+        (update keeps its own in ``self.at``: sampled every step, a joint stays in its segment
+        or moves to the next)."""
+        ps, vs, accs = out = ([], [], [])
+        if at is None or len(at) != len(self.segments):
+            at = [-1] * len(self.segments)
+        for i, segs in enumerate(self.segments):
+            k = at[i] = find_segment(segs, t, at[i])
+            p, v, a = segs[k].sample(t)
+            ps.append(p)
+            vs.append(v)
+            accs.append(a)
         return out
 
     def update(self, t, dt):
         self.time = t
         self._drain(t)
         n = len(self.joints)
-        des_p, des_v, des_a = self.sample(t)
-        act = [self.hw.state(j) for j in self.joints]
+        if len(self.at) != len(self.segments):
+            self.at = [-1] * len(self.segments)
+        des_p, des_v, des_a = self.sample(t, self.at)
+        act = self.read_states()
         err_p = [(_angle_diff(des_p[i], act[i][0]) if self.wraps[i] else des_p[i] - act[i][0])
                  for i in range(n)]
         err_v = [des_v[i] - act[i][1] for i in range(n)]
         goal = self.goal
         if goal is not None:
             for i in range(n):
-                seg = self.segments[i][find_segment(self.segments[i], t)]
+                seg = self.segments[i][self.at[i]]         # found by sample(t)
                 if seg.goal is not goal:
                     continue
                 err = (err_p[i], err_v[i], 0.0)
@@ -376,6 +396,8 @@ class JointTrajectoryController(Controller):
 
     # -- goals and commands, applied in the world's step ----------------------------------------
     def _drain(self, t, accept=True):
+        if not self.inbox:        # (an item appended meanwhile waits for the next update)
+            return
         with self.inbox_lock:
             items = list(self.inbox)
             self.inbox.clear()
@@ -509,6 +531,10 @@ class PositionJointTrajectoryController(JointTrajectoryController):
     INTERFACE = 'position'
 
     def command(self, des_p, des_v, err_p, err_v, dt):
+        many = getattr(self.hw, 'commands', None)
+        if many is not None:
+            many(self.joints, 'position', des_p)
+            return
         for j, q in zip(self.joints, des_p):
             self.hw.command(j, 'position', q)
 

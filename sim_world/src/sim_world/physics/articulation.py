@@ -30,7 +30,8 @@ from ..model import ModelError
 from ..transforms import Pose
 from .base import BodySpec, lump_links
 
-__all__ = ['Group', 'JointState', 'Articulation', 'build_articulation', 'truncate_effort']
+__all__ = ['Group', 'JointState', 'Articulation', 'BodyPoses', 'build_articulation',
+           'truncate_effort']
 
 log = logging.getLogger('sim_world.physics')
 
@@ -83,10 +84,7 @@ class JointState(object):
         self.native = None
         self.damping = joint.damping
         self.friction = joint.friction
-
-    @property
-    def movable(self):
-        return self.joint.movable
+        self.movable = joint.movable     # a joint's type does not change while it lives
 
     def applied(self):
         """Sum of the applied efforts for the coming step; advances their step counts."""
@@ -113,6 +111,7 @@ class Articulation(object):
         self.welded = welded
         self.needs_step = False       # efforts or damping to apply before a step
         self.moving = [js for js in joints.values() if js.movable]
+        self.movable_names = frozenset(js.name for js in self.moving)
 
     def refresh(self):
         self.needs_step = any(js.efforts or js.damping > 0 for js in self.joints.values())
@@ -204,6 +203,148 @@ def build_articulation(model):
     return art
 
 
+def _qmul(a, b):
+    """Quaternion product a * b of (x, y, z, w) float tuples."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+def _rot(q, v):
+    """Unit quaternion q (x, y, z, w) applied to v, in plain floats."""
+    x, y, z, w = q
+    vx, vy, vz = v
+    return ((1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy + 2 * (x * z + y * w) * vz,
+            2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy + 2 * (y * z - x * w) * vz,
+            2 * (x * z - y * w) * vx + 2 * (y * z + x * w) * vy + (1 - 2 * (x * x + y * y)) * vz)
+
+
+class BodyPoses(object):
+    """The world poses of every group's body (its centre-of-mass frame, ``spec.com`` in its
+    root-link frame) from the root body's pose and joint positions: ``forward(art, root_body
+    * com_inv, positions)[i] * spec.com`` (the kinematic joint set of the ODE engine runs it
+    every step while a position interface moves an arm), computed in plain floats with one
+    pose product per group.
+
+    Each group's pose in its parent's body frame, ``L(q) = com_inv(parent) * origin *
+    motion(q) * com``, is folded into constants when the model is built: a revolute or
+    continuous joint about the unit axis a gives ``L.q = cos(q/2) A + sin(q/2) B`` (A = K.q
+    com.q, B = K.q (a, 0) com.q with K = com_inv(parent) * origin) and ``L.p = D + cos(q) E +
+    sin(q) F`` (Rodrigues' formula on com.p: D = K.p + K.q (a.com.p) a, E = K.q of com.p's
+    part across a, F = K.q (a x com.p)); a prismatic one ``L.q = A``, ``L.p = D + q E``; a
+    preserved fixed joint a constant; a joint with its own frame (SDF ``<pose>``) goes
+    through ``sim_world.model.joint_motion``. Then body = parent body * L(q). The results
+    equal the straightforward composition to float rounding (test_articulation_fk)."""
+
+    ROT, SLIDE, FIXED, GENERAL = 0, 1, 2, 3
+
+    def __init__(self, art):
+        self.groups = art.groups
+        consts = []
+        zero = (0.0, 0.0, 0.0)
+        for g in art.groups:
+            if g.parent is None:
+                consts.append(None)
+                continue
+            par = art.groups[g.parent]
+            k = par.com_inv * g.origin
+            com = g.spec.com
+            j = g.joint
+            kq = tuple(k.q.tolist())
+            kp = tuple(k.p.tolist())
+            cq = tuple(com.q.tolist())
+            cp = tuple(com.p.tolist())
+            if j is None or not j.movable:
+                c = k * com
+                consts.append((g.parent, self.FIXED, '', None) + tuple(c.q.tolist())
+                              + (0.0,) * 4 + tuple(c.p.tolist()) + zero + zero)
+                continue
+            f = j.frame
+            if np.any(f.p) or f.q[3] != 1.0:
+                consts.append((g.parent, self.GENERAL, j.name, (k, com, j)) + (0.0,) * 17)
+                continue
+            a = j.axis / max(np.linalg.norm(j.axis), 1e-12)
+            ax, ay, az = (float(v) for v in a)
+            A = _qmul(kq, cq)
+            if j.type == 'prismatic':
+                axis = tuple(float(v) for v in j.axis)
+                consts.append((g.parent, self.SLIDE, j.name, None) + A + (0.0,) * 4
+                              + _add(kp, _rot(kq, cp)) + _rot(kq, axis) + zero)
+                continue
+            B = _qmul(_qmul(kq, (ax, ay, az, 0.0)), cq)
+            along = ax * cp[0] + ay * cp[1] + az * cp[2]
+            par_part = (ax * along, ay * along, az * along)
+            across = (cp[0] - par_part[0], cp[1] - par_part[1], cp[2] - par_part[2])
+            cross = (ay * cp[2] - az * cp[1], az * cp[0] - ax * cp[2], ax * cp[1] - ay * cp[0])
+            consts.append((g.parent, self.ROT, j.name, None) + A + B
+                          + _add(kp, _rot(kq, par_part)) + _rot(kq, across) + _rot(kq, cross))
+        self.consts = consts
+        #: per group (parent, kind, joint, poses, A (4), B (4), D (3), E (3), F (3))
+
+    def __call__(self, root_p, root_q, positions):
+        """[(position, wxyz quaternion)] of every group's body (ODE's order), the root body
+        at (root_p, root_q xyzw); ``positions``: {joint name: value}, missing: 0."""
+        ROT, SLIDE, FIXED = self.ROT, self.SLIDE, self.FIXED
+        sin, cos, sqrt = math.sin, math.cos, math.sqrt
+        get = positions.get
+        bodies = []
+        out = []
+        for c in self.consts:
+            if c is None:
+                px, py, pz = root_p
+                x, y, z, w = root_q
+                n = sqrt(x * x + y * y + z * z + w * w)
+                x, y, z, w = x / n, y / n, z / n, w / n
+                bodies.append((px, py, pz, x, y, z, w))
+                out.append(((px, py, pz), (w, x, y, z)))
+                continue
+            (parent, kind, jname, poses, a0, a1, a2, a3, b0, b1, b2, b3, vx, vy, vz,
+             e0, e1, e2, f0, f1, f2) = c
+            if kind == ROT:
+                h = 0.5 * get(jname, 0.0)
+                ch, sh = cos(h), sin(h)
+                cq, sq = ch * ch - sh * sh, 2.0 * sh * ch          # cos q, sin q
+                bx, by, bz, bw = (ch * a0 + sh * b0, ch * a1 + sh * b1, ch * a2 + sh * b2,
+                                  ch * a3 + sh * b3)
+                vx, vy, vz = vx + cq * e0 + sq * f0, vy + cq * e1 + sq * f1, \
+                    vz + cq * e2 + sq * f2
+            elif kind == SLIDE:
+                q = get(jname, 0.0)
+                bx, by, bz, bw = a0, a1, a2, a3
+                vx, vy, vz = vx + q * e0, vy + q * e1, vz + q * e2
+            elif kind == FIXED:                  # a preserved fixed joint
+                bx, by, bz, bw = a0, a1, a2, a3
+            else:
+                from ..model import joint_motion
+                k, com, j = poses
+                m = k * joint_motion(j, get(jname, 0.0)) * com
+                bx, by, bz, bw = m.q.tolist()
+                vx, vy, vz = m.p.tolist()
+            px, py, pz, x, y, z, w = bodies[parent]
+            qx = w * bx + x * bw + y * bz - z * by
+            qy = w * by - x * bz + y * bw + z * bx
+            qz = w * bz + x * by - y * bx + z * bw
+            qw = w * bw - x * bx - y * by - z * bz
+            n = sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+            qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+            p = (px + (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy
+                 + 2 * (x * z + y * w) * vz,
+                 py + 2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy
+                 + 2 * (y * z - x * w) * vz,
+                 pz + 2 * (x * z - y * w) * vx + 2 * (y * z + x * w) * vy
+                 + (1 - 2 * (x * x + y * y)) * vz)
+            bodies.append(p + (qx, qy, qz, qw))
+            out.append((p, (qw, qx, qy, qz)))
+        return out
+
+
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
 def _group_offset(groups, pidx, origin, parent_old, members, keep):
     """Pose of a dropped group's root in its kept parent's frame (the parent is kept)."""
     return origin
@@ -227,16 +368,19 @@ def check_positions(art, name, positions):
     """{joint: float} checked: known movable joints, finite values; ValueError naming the
     joint otherwise."""
     out = {}
-    for jn, v in dict(positions).items():
-        js = art.joints.get(jn)
-        if js is None or not js.movable:
+    movable = art.movable_names
+    if not isinstance(positions, dict):
+        positions = dict(positions)
+    for jn, v in positions.items():
+        if jn not in movable:
             raise KeyError('model %r has no movable joint %r' % (name, jn))
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            raise ValueError('joint %r of model %r: position %r is not a number' % (jn, name, v))
-        if not math.isfinite(v) or abs(v) > 1e6:
+        if type(v) is not float:
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ValueError('joint %r of model %r: position %r is not a number'
+                                 % (jn, name, v))
+        if not abs(v) <= 1e6:           # NaN and inf too
             raise ValueError('joint %r of model %r: position %r is not finite' % (jn, name, v))
         out[jn] = v
     return out
-

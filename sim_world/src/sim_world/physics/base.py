@@ -636,6 +636,24 @@ class PhysicsEngine(object):
             return 0.0, 0.0
         return self._joint_pos_vel(rec, js)
 
+    def joint_states_of(self, name, joints):
+        """[(position, velocity)] of the named joints, in that order: joint_state of each,
+        the model looked up once and, in Bullet, one call for all (a controller reads its
+        joints every step). KeyError naming an unknown joint."""
+        rec = self._get(name)
+        table = rec.art.joints if rec.art is not None else {}
+        jss = []
+        for jn in joints:
+            js = table.get(jn)
+            if js is None:
+                raise KeyError('model %r has no joint %r' % (name, jn))
+            jss.append(js)
+        return self._joint_pos_vels(rec, jss)
+
+    def _joint_pos_vels(self, rec, jss):
+        pv = self._joint_pos_vel
+        return [pv(rec, js) if js.movable else (0.0, 0.0) for js in jss]
+
     def joint_states(self, name):
         """{joint: (position, velocity)} of every simulated joint."""
         return dict((jn, self.joint_state(name, jn)) for jn in self.joint_names(name))
@@ -644,13 +662,12 @@ class PhysicsEngine(object):
         """Move joints to ``positions`` ({joint: value}; the others keep theirs), every
         joint velocity and the links' twists zero (Gazebo's set_model_configuration; the
         root link stays where it is). KeyError / ValueError naming a bad joint or value."""
-        from .articulation import check_positions
         rec = self._art(name)
-        positions = check_positions(rec.art, name, positions)
-        full = dict(positions)
-        for jn, js in rec.art.joints.items():
-            if js.movable and jn not in full:
-                full[jn] = self._joint_pos_vel(rec, js)[0]
+        full = check_positions(rec.art, name, positions)
+        if len(full) < len(rec.art.moving):
+            for js in rec.art.moving:
+                if js.name not in full:
+                    full[js.name] = self._joint_pos_vel(rec, js)[0]
         self.pose_version += 1
         self._set_joint_positions(rec, full)
         if self._attached.items:
@@ -716,7 +733,6 @@ class PhysicsEngine(object):
 
     def _joint_step(self):
         """Before a step: applied efforts (truncated as Gazebo does) and viscous damping."""
-        from .articulation import truncate_effort
         for rec in self._models.values():
             art = rec.art
             if art is None or not art.needs_step:
@@ -824,3 +840,8 @@ class PhysicsEngine(object):
 
     def step(self, n=1):
         raise NotImplementedError
+
+
+# (articulation imports this module: its names are bound once both exist; the package's
+# __init__ always imports this module first)
+from .articulation import check_positions, truncate_effort  # noqa: E402

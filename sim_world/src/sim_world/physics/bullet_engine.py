@@ -342,6 +342,12 @@ class BulletEngine(PhysicsEngine):
                              physicsClientId=self._c)
         return st[0], st[1]
 
+    def _joint_pos_vels(self, rec, jss):
+        groups = rec.art.groups
+        states = p.getJointStates(rec.native['body'], [groups[js.group].native for js in jss],
+                                  physicsClientId=self._c)
+        return [(st[0], st[1]) if js.movable else (0.0, 0.0) for js, st in zip(jss, states)]
+
     def _set_joint_velocity(self, rec, js, dv):
         bid, li = rec.native['body'], rec.art.groups[js.group].native
         q, v = p.getJointState(bid, li, physicsClientId=self._c)[:2]
@@ -357,10 +363,19 @@ class BulletEngine(PhysicsEngine):
 
     def _set_joint_positions(self, rec, positions):
         bid, c = rec.native['body'], self._c
-        groups = rec.art.groups
-        for js in rec.art.moving:
-            p.resetJointState(bid, groups[js.group].native,
-                              float(positions.get(js.name, 0.0)), 0.0, physicsClientId=c)
+        art = rec.art
+        index = rec.native.get('moving_index')
+        if index is None:         # the multibody's link index of each movable joint
+            index = rec.native['moving_index'] = [art.groups[js.group].native
+                                                  for js in art.moving]
+            rec.native['zero_velocities'] = [[0.0]] * len(index)
+        get = positions.get
+        # one reset for all (the same joint values as one resetJointState each, with one
+        # forward kinematics pass of the multibody instead of one per joint)
+        if index:
+            p.resetJointStatesMultiDof(bid, index, [[float(get(js.name, 0.0))]
+                                                    for js in art.moving],
+                                       rec.native['zero_velocities'], physicsClientId=c)
         p.resetBaseVelocity(bid, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
         self._contacts_valid = False
 

@@ -32,7 +32,7 @@ import math
 import numpy as np
 import ode
 
-from .articulation import forward
+from .articulation import BodyPoses, forward
 from .base import FRICTION, Contact, PhysicsEngine, mesh_boxes
 from ..transforms import Pose
 
@@ -71,81 +71,6 @@ _RAND_GET, _RAND_SET = _ode_rand()
 
 def _wxyz(q):
     return (float(q[3]), float(q[0]), float(q[1]), float(q[2]))
-
-
-def _fk_consts(art):
-    """Per group, as plain float tuples: (parent, origin p, origin q, kind, unit axis, com p,
-    com q, com_inv p, com_inv q); kind 'rot', 'slide', 'general' (a joint frame: through
-    sim_world.model.joint_motion) or None (fixed / root)."""
-    out = []
-    for g in art.groups:
-        j = g.joint
-        kind, axis = None, (0.0, 0.0, 0.0)
-        if j is not None and j.movable:
-            f = j.frame
-            if np.any(f.p) or f.q[3] != 1.0:
-                kind = 'general'
-            elif j.type == 'prismatic':
-                kind, axis = 'slide', tuple(float(v) for v in j.axis)
-            else:
-                a = j.axis / max(np.linalg.norm(j.axis), 1e-12)
-                kind, axis = 'rot', tuple(float(v) for v in a)
-        ci = g.com_inv
-        out.append((g.parent, tuple(g.origin.p.tolist()), tuple(g.origin.q.tolist()), kind,
-                    axis, tuple(g.spec.com.p.tolist()), tuple(g.spec.com.q.tolist()),
-                    tuple(ci.p.tolist()), tuple(ci.q.tolist())))
-    return out
-
-
-def _compose(ap, aq, bp, bq):
-    """Pose a * pose b in plain floats (transforms.Pose.__mul__ without its arrays)."""
-    x, y, z, w = aq
-    vx, vy, vz = bp
-    bx, by, bz, bw = bq
-    qx = w * bx + x * bw + y * bz - z * by
-    qy = w * by - x * bz + y * bw + z * bx
-    qz = w * bz + x * by - y * bx + z * bw
-    qw = w * bw - x * bx - y * by - z * bz
-    n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    return ((ap[0] + (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy
-             + 2 * (x * z + y * w) * vz,
-             ap[1] + 2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy
-             + 2 * (y * z - x * w) * vz,
-             ap[2] + 2 * (x * z - y * w) * vx + 2 * (y * z + x * w) * vy
-             + (1 - 2 * (x * x + y * y)) * vz),
-            (qx / n, qy / n, qz / n, qw / n))
-
-
-def _body_poses(art, root_p, root_q, positions):
-    """(position, wxyz quaternion) of every group's body (its centre of mass) with the root
-    body at (root_p, root_q xyzw) and the joints at ``positions`` ({name: value}, missing:
-    0): articulation.forward in plain floats (a kinematic set costs this every step)."""
-    from ..model import joint_motion
-    consts = getattr(art, '_fk_consts', None)
-    if consts is None:
-        consts = art._fk_consts = _fk_consts(art)
-    frames, out = [], []
-    for g, (parent, op, oq, kind, axis, cp, cq, cip, ciq) in zip(art.groups, consts):
-        if parent is None:
-            fp, fq = _compose(root_p, root_q, cip, ciq)      # root link frame
-        else:
-            fp, fq = _compose(*(frames[parent] + (op, oq)))
-            q = positions.get(g.joint.name, 0.0) if kind is not None else 0.0
-            if q:
-                if kind == 'rot':
-                    s = math.sin(q / 2.0)
-                    fp, fq = _compose(fp, fq, (0.0, 0.0, 0.0),
-                                      (axis[0] * s, axis[1] * s, axis[2] * s, math.cos(q / 2.0)))
-                elif kind == 'slide':
-                    fp, fq = _compose(fp, fq, (axis[0] * q, axis[1] * q, axis[2] * q),
-                                      (0.0, 0.0, 0.0, 1.0))
-                else:
-                    m = joint_motion(g.joint, q)
-                    fp, fq = _compose(fp, fq, tuple(m.p.tolist()), tuple(m.q.tolist()))
-        frames.append((fp, fq))
-        bp, bq = _compose(fp, fq, cp, cq)
-        out.append((bp, (bq[3], bq[0], bq[1], bq[2])))
-    return out
 
 
 class OdeEngine(PhysicsEngine):
@@ -293,6 +218,19 @@ class OdeEngine(PhysicsEngine):
             return oj.getPosition(), oj.getPositionRate()
         return self._unwrap(js, oj.getAngle()), oj.getAngleRate()
 
+    def _joint_pos_vels(self, rec, jss):
+        unwrap = self._unwrap
+        out = []
+        for js in jss:
+            oj = js.native
+            if not js.movable:
+                out.append((0.0, 0.0))
+            elif js.joint.type == 'prismatic':
+                out.append((oj.getPosition(), oj.getPositionRate()))
+            else:
+                out.append((unwrap(js, oj.getAngle()), oj.getAngleRate()))
+        return out
+
     def _set_joint_velocity(self, rec, js, dv):
         """Add ``dv`` to a joint's velocity: the child group and its subtree get the
         rigid velocity field of that joint motion."""
@@ -331,34 +269,42 @@ class OdeEngine(PhysicsEngine):
 
     def _set_joint_positions(self, rec, positions):
         art = rec.art
+        native = rec.native
+        fk = native.get('fk_of')
+        if fk is None:            # per model: its body-pose constants and its hinges
+            fk = native['fk_of'] = (BodyPoses(art), [
+                (js.name, js) for js in art.moving if js.joint.type != 'prismatic'])
+        body_poses, hinges = fk
         b0 = art.groups[0].native
         # a welded root goes back where it was welded (quickStep's weld is soft: it wanders
         # ~1e-6 m per step under a moving arm, and setting it where it is would keep that)
-        root = rec.native['weld_at'] or b0.getPosition() + b0.getQuaternion()
-        w, x, y, z = root[3:]
-        q = tuple(positions.get(jn, 0.0) for jn in art.order)
-        cache = rec.native.get('fk')
-        if cache is not None and cache[1] == q and \
-                max(abs(a - b) for a, b in zip(cache[0], root)) < FK_CACHE_TOLERANCE:
+        root = native['weld_at'] or b0.getPosition() + b0.getQuaternion()
+        get = positions.get
+        q = tuple([get(jn, 0.0) for jn in art.order])
+        cache = native.get('fk')
+        if cache is not None and cache[1] == q and (cache[0] is root or max(
+                abs(a - b) for a, b in zip(cache[0], root)) < FK_CACHE_TOLERANCE):
             poses = cache[2]          # a held pose: the same command as the last set
         else:
-            poses = _body_poses(art, root[:3], (x, y, z, w), positions)
-            rec.native['fk'] = (root, q, poses)
+            w, x, y, z = root[3:]
+            poses = body_poses(root[:3], (x, y, z, w), positions)
+            native['fk'] = (root, q, poses)
+        zero = (0.0, 0.0, 0.0)
         for g, (bp, bq) in zip(art.groups, poses):
+            # (no enable(): a live model's bodies are never disabled, auto-disable is off)
             b = g.native
             b.setPosition(bp)
             b.setQuaternion(bq)
-            b.setLinearVel((0.0, 0.0, 0.0))
-            b.setAngularVel((0.0, 0.0, 0.0))
-            b.enable()
-        if rec.native['weld'] is not None:
-            rec.native['weld'].setFixed()
-        for jn, js in art.joints.items():
-            if js.movable and js.joint.type != 'prismatic':
-                raw = js.native.getAngle()
-                js.turns = int(round((positions.get(jn, raw) - raw) / TWO_PI))
-                js.last_raw = raw
-        self._dirty = True
+            b.setLinearVel(zero)
+            b.setAngularVel(zero)
+        if native['weld'] is not None:
+            native['weld'].setFixed()
+        for jn, js in hinges:
+            raw = js.native.getAngle()
+            js.turns = round((get(jn, raw) - raw) / TWO_PI)
+            js.last_raw = raw
+        if native['geoms']:
+            self._dirty = True    # new contacts (a model without collisions changes none)
 
     # ---- the link attacher (sim_world.physics.attachments) -----------------------------------
     @staticmethod

@@ -510,6 +510,26 @@ class Detach(Attach):
     service = '/gazebo/detach'
 
 
+def e_stop_topic(ev):
+    """The e-stop topic of an e_stop action: ``topic`` (default ``e_stop``) in the robot's
+    namespace ``ns``, or ``topic`` itself when it is absolute."""
+    topic = ev.get('topic', 'e_stop')
+    if topic.startswith('/'):
+        return topic
+    return '/' + '/'.join(x for x in (ev['ns'].strip('/'), topic.strip('/')) if x)
+
+
+class EStop(Action):
+    """A robot's e-stop (gazebo_ros_control's ``eStopTopic``, std_msgs/Bool, latched): active,
+    its position-commanded joints hold where they are, velocities and efforts are 0, whatever
+    its controllers command; not active, released (its running controllers start again)."""
+    name = 'e_stop'
+
+    def apply(self, h, t0):
+        from std_msgs.msg import Bool
+        h.publish(e_stop_topic(self.ev), Bool(data=bool(self.ev['active'])))
+
+
 class Log(Action):
     name = 'log'
 
@@ -520,7 +540,7 @@ class Log(Action):
 KINDS = {cls.name: cls for cls in (
     SetModelState, MoveModel, Walk, Rotate, SetEnvironment, Playback, Charger, Radio,
     PressButton, Touch, ShowImage, SpawnModel, DeleteModel, Fault, Publish, Log, SetJoints,
-    Door, JointEffort, Trajectory, Attach, Detach)}
+    Door, JointEffort, Trajectory, Attach, Detach, EStop)}
 
 
 def action_of(ev):

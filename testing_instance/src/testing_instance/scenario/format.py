@@ -7,6 +7,7 @@ the validator cannot drift apart. ``load(path)`` returns a Scenario.
 """
 import math
 import os
+import re
 
 from .params import concrete, expand as _expand
 from .yamlsrc import LDict, LList, ScenarioError, parse, read
@@ -88,6 +89,9 @@ ACTIONS = {
                'alone: its root link; /gazebo/attach)'),
     'detach': ({'holder': 'str', 'held': 'str'}, {}, 'let go of what attach held '
                '(/gazebo/detach)'),
+    'e_stop': ({'ns': 'str', 'active': 'bool'}, {'topic': 'str'},
+               "a robot's e-stop active or released: std_msgs/Bool on <ns>/e_stop (topic: the "
+               "plugin's eStopTopic, relative to ns or absolute; libgazebo_ros_control.so)"),
 }
 PREDICATE_KEYS = {
     'equals': 'any', 'near': 'any', 'tol': 'num>=0', 'gt': 'num', 'ge': 'num', 'lt': 'num',
@@ -359,6 +363,12 @@ def _validate_event(v, ev, where, line, duration, ids):
         _validate_condition(v, ev['when'], where + '.when', _line(ev, 'when', line))
     if action == 'trajectory' and isinstance(ev.get('points'), list):
         _validate_points(v, ev, where, line)
+    if action == 'e_stop':
+        for k in ('ns', 'topic'):
+            if isinstance(ev.get(k), str) and ev[k] and not _ROS_NAME.match(ev[k]):
+                v.err(_line(ev, k, line), '%s.%s' % (where, k), 'expected a ROS name '
+                      '(letters, digits, _ and /, not starting with a digit), got %s'
+                      % _show(ev[k]))
     if action == 'playback':
         if ('name' in ev) == ('topic' in ev):
             v.err(_line(ev, default=line), where, 'expected exactly one of name (an '
@@ -366,6 +376,9 @@ def _validate_event(v, ev, where, line, duration, ids):
         if 'topic' in ev and not ('type' in ev and 'field' in ev):
             v.err(_line(ev, default=line), where, 'a topic playback needs type and field')
 
+
+#: a ROS graph name (global or relative; ROS's own rule, without ~)
+_ROS_NAME = re.compile(r'^(/|/?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*/?)$')
 
 TRAJECTORY_POINT = {'positions': 'nums', 'time_from_start': 'num>=0', 'velocities': 'nums',
                     'accelerations': 'nums', 'effort': 'nums'}

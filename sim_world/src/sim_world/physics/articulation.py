@@ -328,8 +328,8 @@ class BodyPoses(object):
             qy = w * by - x * bz + y * bw + z * bx
             qz = w * bz + x * by - y * bx + z * bw
             qw = w * bw - x * bx - y * by - z * bz
-            n = sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-            qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+            # (products of unit quaternions: unit to rounding, ~1e-16 per body; ODE
+            # normalises what it is given)
             p = (px + (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y - z * w) * vy
                  + 2 * (x * z + y * w) * vz,
                  py + 2 * (x * y + z * w) * vx + (1 - 2 * (x * x + z * z)) * vy

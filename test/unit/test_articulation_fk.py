@@ -127,3 +127,18 @@ def test_the_engines_joint_set_puts_every_link_where_the_composition_does(physic
             e.step(3)
     finally:
         e.close()
+
+
+def test_the_trajectorys_segment_hint_finds_what_the_search_finds():
+    """The trajectory controller keeps each joint's segment index between steps as a hint
+    (trajectory.find_segment): any hint gives the binary search's answer, repeated start
+    times (held points, bridges) and times before, between and after included."""
+    from sim_world.control.trajectory import Segment, State, find_segment
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        t0s = np.sort(rng.choice([0.0, 0.5, 1.0, 1.5, 2.0, 3.0], rng.integers(1, 7)))
+        segs = [Segment(a, State(0.0), a + 0.1, State(1.0)) for a in t0s]
+        for t in (-1.0, 0.0, 0.25, 0.5, 1.0, 1.7, 2.0, 5.0):
+            want = find_segment(segs, t)
+            for hint in range(-1, len(segs) + 2):
+                assert find_segment(segs, t, hint) == want, (t0s, t, hint)

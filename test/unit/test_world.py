@@ -56,6 +56,34 @@ def test_plugin_rate_follows_sim_time(world):
     assert a[-1] == pytest.approx(2.0, abs=0.0011)
 
 
+def test_the_worlds_scan_fires_each_plugin_when_its_own_timer_says(world):
+    """World._update_plugins/reschedule read the timers inline: every plugin (rates 0, 7,
+    30, 333 Hz, a rate changed mid-run by another plugin's update) fires exactly at the sim
+    times its own UpdateTimer gives, step by step."""
+    from sim_world.plugins.timer import UpdateTimer
+    del CALLS[:]
+    rates = {'every': 0, 'seven': 7, 'thirty': 30, 'fast': 333}
+    xml = ''.join('<plugin name="%s" filename="libtest_counter.so"><updateRate>%g'
+                  '</updateRate></plugin>' % kv for kv in rates.items())
+    world.add_model(box_robot('scan', '<gazebo>%s</gazebo>' % xml, gravity=False),
+                    pose=Pose((0, 0, 1)))
+    mine = world.plugins['scan']
+    own = {p.spec.name: UpdateTimer(p.timer.rate) for p in mine}
+    expect = []
+    for i in range(1, 700):
+        if i == 300:                        # a rate changed from outside the scan
+            nxt = [p for p in mine if p.spec.name == 'seven'][0]
+            nxt.timer.set_rate(50, world.sim_time)
+            own['seven'].set_rate(50, world.sim_time)
+            world.reschedule()
+        world.step(1)
+        t = world.sim_time
+        expect += [(n, round(t, 6)) for n in sorted(own) if own[n].due(t)]
+    got = sorted(c for c in CALLS if c[1] > 0)
+    assert got == sorted(expect)
+    assert len([c for c in got if c[0] == 'every']) == 699
+
+
 def test_failing_plugin_does_not_stop_the_world(world, caplog):
     del CALLS[:]
     xml = ('<gazebo><plugin name="bad" filename="libtest_counter.so"><updateRate>100</updateRate>'

@@ -14,6 +14,7 @@ from collections import OrderedDict
 import numpy as np
 
 from . import plugins as plugin_registry
+from .plugins.timer import EPS as TIMER_EPS
 from .environment import Environment
 from .logonce import LogOnce
 from .model import ModelError
@@ -510,7 +511,12 @@ class World(object):
 
     def _update_plugins(self):
         t = self.sim_time
-        due = [p for ps in self.plugins.values() for p in ps if p.due(t)]
+        te = t + TIMER_EPS
+        # UpdateTimer.due's first test inline: a plugin with a rate whose next firing is
+        # later is skipped without two calls (with one plugin updating every step, the
+        # arm's controller, this scan ran every step over every plugin of the world)
+        due = [p for ps in self.plugins.values() for p in ps
+               if not (p.timer.rate > 0 and te < p.timer.next_time) and p.due(t)]
         if due:
             for cb in self.before_plugin_updates:
                 cb(t)
@@ -537,7 +543,11 @@ class World(object):
         now = self.sim_time
         for ps in self.plugins.values():
             for p in ps:
-                t = p.timer.next_due(now)
+                tm = p.timer                   # UpdateTimer.next_due, inline (every step
+                if tm.rate > 0:                # while a plugin updates every step)
+                    t = tm.next_time
+                else:
+                    t = now if now > tm.offset else tm.offset
                 if t < nxt:
                     nxt = t
         self._next_plugin_time = nxt

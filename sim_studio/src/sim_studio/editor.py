@@ -359,9 +359,9 @@ async def handle(studio, cmd, client):
         return out
     if cmd.op == 'save_scenario':
         out = await loop.run_in_executor(None, save_file, f['path'], f['yaml'])
+        n = len(out['problems'])
         studio.log('studio: saved %s (%d bytes%s)' % (
-            out['path'], out['bytes'], ', %d problems' % len(out['problems'])
-            if out['problems'] else ''))
+            out['path'], out['bytes'], ', %d problem%s' % (n, 's' * (n > 1)) if n else ''))
         return out
     if cmd.op == 'merge_recording':
         text, added, expects = merge(f['yaml'], studio.recorder, f['offset'])

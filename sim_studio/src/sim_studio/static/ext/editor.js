@@ -58,6 +58,7 @@
   }
   function check() {
     const gen = ++ed.gen, text = ta.value;
+    if (!text.trim()) { show([], text); return; }          // nothing to check
     S.send({op: 'check', yaml: text}).then((rep) => {
       if (gen !== ed.gen || !rep.ok) return;      // typed on since: a newer check comes
       ed.checks++;
@@ -97,7 +98,7 @@
     });
   }
 
-  // -- CodeMirror, loaded after the page's first frame has its scripts ---------------------------
+  // -- CodeMirror, loaded once the page has drawn its first frame -----------------------------
   function css(href) {
     const l = document.createElement('link');
     l.rel = 'stylesheet';
@@ -113,15 +114,22 @@
       document.head.appendChild(s);
     });
   }
-  css('/codemirror/lib/codemirror.css');
-  script('/codemirror/lib/codemirror.js')
-    .then(() => script('/codemirror/mode/yaml/yaml.js'))
-    .then(start)
-    .catch((e) => {
-      ed.failed = String(e);
-      say('no editor component (' + e.message + '): the plain text box is used', true);
-      ta.addEventListener('input', schedule);
-    });
+  function load() {
+    css('/codemirror/lib/codemirror.css');
+    script('/codemirror/lib/codemirror.js')
+      .then(() => script('/codemirror/mode/yaml/yaml.js'))
+      .then(start)
+      .catch((e) => {
+        ed.failed = String(e);
+        say('no editor component (' + e.message + '): the plain text box is used', true);
+        ta.addEventListener('input', schedule);
+      });
+  }
+  // after the 3D view's first frame: its 400 kB must not hold the first frame back
+  let loading = false;
+  const later = () => { if (!loading) { loading = true; load(); } };
+  S.onFrame(() => { if (S.firstFrameAt !== null) setTimeout(later, 0); });
+  setTimeout(later, 10000);              // a world that never shows: the editor all the same
 
   function start() {
     const cm = ed.cm = CodeMirror.fromTextArea(ta, {

@@ -16,6 +16,15 @@
     return e;
   };
   const say = (rep) => { studio.showError(rep); return rep; };
+  // read-only ops over POST /api/cmd: their answers do not wait behind the stream's
+  // messages on the WebSocket (a busy page reads those late)
+  function ask(cmd) {
+    cmd.v = 1;
+    return fetch('/api/cmd', {method: 'POST', body: JSON.stringify(cmd)})
+      .then((r) => r.json())
+      .catch((e) => ({ok: false, error: String(e)}));
+  }
+  M.ask = ask;
   function phone() {
     if (studio.displays[studio.selected]) return studio.selected;
     return Object.keys(studio.displays)[0] || 'mobile_device';
@@ -45,10 +54,6 @@
   const row = el('div', {class: 'row'});
   row.append('speed ', speed, ' m/s ', walkB, clearB, ' ', wpText);
   moves.append(el('div', {class: 'hint'}, 'top view: click waypoints, then walk'), top, row);
-  const off = document.createElement('canvas');           // the WebGL top view, drawn into `top`
-  off.width = top.width;
-  off.height = top.height;
-  let topRenderer = null;
   const topCam = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.1, 200);
   topCam.up.set(0, 1, 0);
   function setBounds(b) {
@@ -76,20 +81,21 @@
   function drawTop() {
     if (!M.bounds) return;
     const g = top.getContext('2d');
-    try {
-      if (!topRenderer) {
-        topRenderer = new THREE.WebGLRenderer({canvas: off, antialias: false});
-        topRenderer.setSize(off.width, off.height, false);
-      }
-      const handle = studio.handle.visible;
-      studio.handle.visible = false;
-      topRenderer.render(studio.scene3d, topCam);
-      studio.handle.visible = handle;
-      g.drawImage(off, 0, 0);
-    } catch (err) {
-      g.fillStyle = '#334';
-      g.fillRect(0, 0, top.width, top.height);
-    }
+    // drawn by the page's renderer into a corner of the 3D view's canvas (a second WebGL
+    // context would compile every shader again), copied from there before the view's frame
+    // is drawn over it
+    const r = studio.renderer, c = r.domElement, k = r.getPixelRatio();
+    const w = top.width / k, h = top.height / k, size = r.getSize(new THREE.Vector2());
+    const handle = studio.handle.visible;
+    studio.handle.visible = false;
+    r.setScissorTest(true);
+    r.setScissor(0, 0, w, h);
+    r.setViewport(0, 0, w, h);
+    r.render(studio.scene3d, topCam);
+    g.drawImage(c, 0, c.height - top.height, top.width, top.height, 0, 0, top.width, top.height);
+    r.setScissorTest(false);
+    r.setViewport(0, 0, size.x, size.y);
+    studio.handle.visible = handle;
     const px = (p) => [(p[0] - M.bounds[0]) / (M.bounds[1] - M.bounds[0]) * top.width,
                        (M.bounds[3] - p[1]) / (M.bounds[3] - M.bounds[2]) * top.height];
     const obj = studio.models[studio.selected];
@@ -132,9 +138,12 @@
       if (rep.ok) { M.waypoints = []; wpText.textContent = 'walking until ' + rep.end.toFixed(2) + ' s'; }
     });
   };
-  let topAt = 0;
+  // redrawn once a second while it is on the screen (a second WebGL view costs the page)
+  let topAt = 0, topSeen = false;
+  new IntersectionObserver((es) => { topSeen = es[es.length - 1].isIntersecting; })
+    .observe(top);
   studio.onFrame((now) => {
-    if (now - topAt > 500) { topAt = now; drawTop(); }
+    if (topSeen && now - topAt > 1000) { topAt = now; drawTop(); }
   });
 
   // -- icons for lights and radios, and the WiFi map over the floor ---------------------------
@@ -213,7 +222,7 @@
     if (M.overlay) M.overlay.visible = false;
     if (!on) { mapText.textContent = ''; return; }
     mapText.textContent = 'computing...';
-    studio.send({op: 'wifi_map', bssid: apSel.value || undefined}).then((rep) => {
+    ask({op: 'wifi_map', bssid: apSel.value || undefined}).then((rep) => {
       if (!rep.ok) { say(rep); mapText.textContent = rep.error; return; }
       if (!overlayBox.checked) return;
       const b = rep.bounds;
@@ -240,7 +249,7 @@
   M.showOverlay = (on) => { overlayBox.checked = on; showOverlay(on); };
 
   function askInfo() {
-    studio.send({op: 'world_info'}).then((rep) => {
+    ask({op: 'world_info'}).then((rep) => {
       if (rep.ok) addIcons(rep); else say(rep);
     });
   }

@@ -247,3 +247,23 @@ def test_the_wifi_map_is_the_radio_budgets():
 def test_the_speaker_level_is_rms_in_dbfs():
     assert overlay.rms_dbfs([0.5, -0.5]) == pytest.approx(20 * math.log10(0.5))
     assert overlay.rms_dbfs([]) == -math.inf and overlay.rms_dbfs([0, 0]) == -math.inf
+
+
+def test_radio_and_charger_are_the_runners_actions_and_are_recorded():
+    from testing_instance.run.actions import Hands
+    w = World()
+    s = Studio(w, [])
+    sent = []
+    hands = Hands(types.SimpleNamespace(phones=[{'ns': 'mobile_device'}]), None, None)
+    hands.publish = lambda topic, msg: sent.append((topic, msg.data))
+    moves._state(s).hands = hands
+    s.recorder.start(w.clock)
+    for body in ({'op': 'radio', 'radio': 'wifi', 'enabled': False},
+                 {'op': 'charger', 'plugged': True, 'model': 'mobile_device'}):
+        rep = run(s.handle_text(json.dumps(dict(body, v=1))))
+        assert rep['ok'], rep
+    assert sent == [('/mobile_device/wifi/enable', False), ('/mobile_device/charger', True)]
+    text = s.recorder.yaml()
+    assert 'action: radio, ns: mobile_device, radio: wifi, enabled: false' in text, text
+    assert 'action: charger, ns: mobile_device, plugged: true' in text
+    assert check_yaml(text) == []

@@ -50,10 +50,23 @@ class Client(object):
         self.wake = asyncio.Event()
         self.sent = 0
         self.device = False        # wants the device panel's values
+        self.acks = False          # it says 'ack' for each message it has taken in
+        self.unacked = 0
+
+    #: messages a client that acks may have sent to it and not yet taken in; the streams
+    #: wait in their slots (latest wins) beyond that, so a slow page never falls behind
+    WINDOW = 6
 
     def put(self, key, payload):
         self.slots[key] = payload
         self.wake.set()
+
+    def ack(self):
+        """The client took in one more message (text 'ack': flow control on)."""
+        self.acks = True
+        self.unacked = max(0, self.unacked - 1)
+        if self.slots or self.replies:
+            self.wake.set()
 
     def answer(self, obj):
         self.replies.append(json.dumps(obj))
@@ -65,6 +78,9 @@ class Client(object):
             self.wake.clear()
             while self.replies:
                 await self.ws.send_str(self.replies.pop(0))
+                self.unacked += self.acks
+            if self.acks and self.unacked >= self.WINDOW:
+                continue                 # the page is behind: its slots wait for its acks
             slots, self.slots = self.slots, {}
             for key, payload in slots.items():
                 if isinstance(payload, bytes):
@@ -72,6 +88,7 @@ class Client(object):
                 else:
                     await self.ws.send_str(payload)
                 self.sent += 1
+                self.unacked += self.acks
 
 
 class Studio(object):
@@ -235,6 +252,7 @@ class Studio(object):
         w, f = self.world, cmd.fields
         t = w.clock
         display = None
+        getattr(w, 'links_moved', lambda: None)()     # a link may move: ask at full rate
         if cmd.op == 'set_pose':
             w.set_pose(f['model'], f['position'], f['rpy'])
         elif cmd.op == 'touch':
@@ -338,7 +356,9 @@ class Studio(object):
             self._health_at = time.monotonic()
             await loop.run_in_executor(None, self.check_world)
         if self.clients:
-            await loop.run_in_executor(None, self.world.poll_links)
+            due = getattr(self.world, 'links_due', None)
+            if due is None or due():          # no thread hand-off for nothing to do
+                await loop.run_in_executor(None, self.world.poll_links)
             msg = self.poses_message()
             for c in self.clients:
                 c.put('poses', msg)
@@ -452,7 +472,9 @@ def make_app(studio):
         pump = asyncio.ensure_future(c.pump())
         try:
             async for msg in ws:
-                if msg.type in (WSMsgType.TEXT, WSMsgType.BINARY):
+                if msg.type == WSMsgType.TEXT and msg.data == 'ack':
+                    c.ack()
+                elif msg.type in (WSMsgType.TEXT, WSMsgType.BINARY):
                     # one command at a time per client, but the pump keeps streaming
                     rep = await studio.handle_text(msg.data, c)
                     c.answer(rep)

@@ -503,6 +503,7 @@
     ws = new WebSocket(wsUrl);
     ws.binaryType = 'blob';
     ws.onmessage = (ev) => {
+      ev.target.send('ack');      // flow control: the server sends on as the page takes in
       if (typeof ev.data !== 'string') {
         const url = URL.createObjectURL(ev.data);
         $('camera').src = url;
@@ -540,7 +541,8 @@
         studio.name = m.name;
         studio.cameraTopic = m.camera_topic;
         showRecording(m.recording, m.yaml);
-        send({op: 'device', on: true});
+        // the scene first: a client's commands are answered in turn, and the device
+        // panel's (subscribing to every phone topic) must not hold back the first frame
         send({op: 'scene'}).then((rep) => {
           const s = rep.scene;
           if (studio.ready) { build(s); return; }      // a reconnect
@@ -554,6 +556,7 @@
           build(s);
           studio.ready = true;
         });
+        send({op: 'device', on: true});
       } else if (m.type === 'device') {
         showDevice(m);
       } else if (m.type === 'recording') {

@@ -58,8 +58,11 @@
     for (const s of st.sessions) {
       const d = document.createElement('div');
       d.dataset.session = s.session;
-      d.append(document.createTextNode('session ' + s.session + ' ' + s.person + ' (' +
-                                       s.commands + ' commands' +
+      const results = s.tasks.map((t) => (t.result || '-').replace('_', ' ') +
+                                  (t.errors ? ' ' + t.errors + ' err' : '') +
+                                  (t.undos ? ' ' + t.undos + ' undo' : ''));
+      d.append(document.createTextNode('session ' + s.session + ' ' + s.person + ': ' +
+                                       results.join(', ') + ' (' + s.commands + ' commands' +
                                        (s.running ? ', running' : '') + ') '));
       for (const mode of ['timed', 'step']) {
         const b = document.createElement('button');

@@ -362,8 +362,8 @@ def run_command(scenario, run_dir, sweep=False, jobs=2, cluster=None, cpus_per_r
 class Run(object):
     """One run of the studio's: its output so far, verdicts, and at its end its status."""
 
-    def __init__(self, n, d, sweep):
-        self.n, self.dir, self.sweep = n, d, sweep
+    def __init__(self, n, d, sweep, base):
+        self.n, self.dir, self.sweep, self.base = n, d, sweep, base
         self.lines, self.verdicts = [], []
         self.state, self.status, self.code = 'running', None, None
         self.proc = None
@@ -504,7 +504,10 @@ def _start_run(studio, st, f):
     text = f['yaml']
     if f['sweep']:
         try:
-            data = yaml.safe_load(text if text is not None else open(f['file']).read())
+            if text is None:
+                with open(f['file']) as fh:
+                    text = fh.read()
+            data = yaml.safe_load(text)
         except (yaml.YAMLError, OSError) as e:
             raise ValueError('tt_run: the scenario does not read: %s' % str(e).splitlines()[0])
         if not isinstance(data, dict) or not data.get('sweep'):
@@ -517,8 +520,7 @@ def _start_run(studio, st, f):
     d = os.path.join(base, 'run%d' % st['n'])
     os.makedirs(d, exist_ok=True)
     scenario = scenario_copy(text, f['file'], d)
-    run = Run(st['n'], d, f['sweep'])
-    run.base = base
+    run = Run(st['n'], d, f['sweep'], base)
     st['runs'][run.n] = run
     cmd = run_command(scenario, d, f['sweep'], f['jobs'], f['cluster'], f['cpus_per_run'],
                       runner=st.get('runner'))

@@ -357,7 +357,8 @@ async def handle(studio, cmd, client):
 
 
 def routes(app, studio):
-    """The mover's task: the walks' poses at their sim times (every 5 ms of wall time)."""
+    """The mover's task: the walks' poses at their sim times (looked at every 10 ms of wall
+    time)."""
     async def start(_app):
         async def tick():
             loop = asyncio.get_event_loop()
@@ -365,7 +366,7 @@ def routes(app, studio):
             while True:
                 if st.mover.pending():
                     await loop.run_in_executor(None, st.mover.run_due)
-                await asyncio.sleep(0.005)
+                await asyncio.sleep(0.01)
         app['moves'] = asyncio.ensure_future(tick())
 
     async def stop(_app):

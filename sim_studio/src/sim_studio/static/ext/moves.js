@@ -284,10 +284,10 @@
   }
   // the environment (names of /gazebo/set_environment); time of day as daylight's lux
   const env = el('form', {testid: 'environment'});
-  const DAY = {'': 'time of day', 0.3: 'night (0.3 lux)', 400: 'sunrise (400 lux)',
-               10000: 'overcast day (10000 lux)', 100000: 'sunny noon (100000 lux)'};
+  const DAY = [['', 'time of day'], ['0.3', 'night (0.3 lux)'], ['400', 'sunrise (400 lux)'],
+               ['10000', 'overcast day (10000 lux)'], ['100000', 'sunny noon (100000 lux)']];
   const day = el('select', {name: 'daylight_preset', testid: 'time-of-day'});
-  for (const k in DAY) day.append(el('option', {value: k}, DAY[k]));
+  for (const [k, text] of DAY) day.append(el('option', {value: k}, text));
   const num = (name, title, w) => el('input', {type: 'number', step: 'any', name: name,
                                                title: title, placeholder: title,
                                                testid: 'env-' + name, style: 'width:' + w});

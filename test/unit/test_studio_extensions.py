@@ -17,7 +17,7 @@ from test_studio_protocol import FakeWs, MODELS, run, serve, studio  # noqa: E40
 
 
 @pytest.fixture
-def ext():
+def ext(monkeypatch):
     """sim_studio.fake_ext: one world op (wave, on a model) and one read op (count)."""
     mod = types.ModuleType('sim_studio.fake_ext')
     seen = []
@@ -52,6 +52,7 @@ def ext():
     sys.modules['sim_studio.fake_ext'] = mod
     before = (dict(protocol.OPS), set(protocol.WORLD_OPS), set(protocol.MODEL_OPS))
     extensions.load(['fake_ext'])
+    monkeypatch.setattr(extensions, 'NAMES', extensions.NAMES + ('fake_ext',))
     yield seen
     protocol.OPS.clear()
     protocol.OPS.update(before[0])
@@ -62,7 +63,7 @@ def ext():
     protocol.FIELD_CHECKS.pop('wave', None)
     extensions._HANDLERS.pop('wave', None)
     extensions._HANDLERS.pop('count', None)
-    extensions._MODULES.remove(mod)
+    del extensions._LOADED['fake_ext']
     del sys.modules['sim_studio.fake_ext']
 
 

@@ -124,7 +124,7 @@ class World(object):
         self.clock = 10.0
         self.pose = [1.0, 1.0, 1.2]
         self.sets = []
-        self._proxy = Services(self)
+        self.proxy = Services(self)
 
     def model_names(self):
         return set(MODELS)

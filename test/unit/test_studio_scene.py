@@ -95,7 +95,7 @@ def test_meshes_and_textured_shapes_are_served_as_the_renderers_triangles(tmp_pa
     import numpy as np
     import sys
     sys.path.insert(0, worlds.ROOT + '/test')
-    from test_studio import pyramid_stl, studio_world
+    from fixtures.studio import pyramid_stl, studio_world
     path = studio_world(tmp_path)
     assets = scene.Assets()
     models = {m['name']: m for m in scene.describe_world_file(path, assets)}

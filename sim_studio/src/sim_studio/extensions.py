@@ -26,22 +26,24 @@ __all__ = ['NAMES', 'load', 'handler']
 NAMES = ('moves', 'overlay', 'builder', 'study', 'editor', 'timetravel')
 
 _HANDLERS = {}
-_MODULES = []
+_LOADED = {}                # name -> module
 
 
 def load(names=None):
-    """Import the extensions (once) and register their ops; the modules, in order."""
-    if _MODULES and names is None:
-        return list(_MODULES)
-    for name in (NAMES if names is None else names):
+    """Import the extensions ``names`` (default: NAMES) that are not yet loaded and
+    register their ops; their modules, in order."""
+    names = NAMES if names is None else names
+    for name in names:
+        if name in _LOADED:
+            continue
         mod = importlib.import_module('sim_studio.' + name)
         for op, spec in getattr(mod, 'OPS', {}).items():
             spec = dict(spec)
             protocol.register(op, spec.pop('required', {}), spec.pop('optional', {}),
                               spec.pop('changes_world', False), spec.pop('doc'), **spec)
             _HANDLERS[op] = mod.handle
-        _MODULES.append(mod)
-    return list(_MODULES)
+        _LOADED[name] = mod
+    return [_LOADED[n] for n in names]
 
 
 def handler(op):

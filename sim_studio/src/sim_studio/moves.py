@@ -199,7 +199,7 @@ class _Side(object):
         self.srv_types = {'get': GetModelState, 'set': SetModelState}
 
     def proxy(self, name, typ):
-        return self.link._proxy(name, typ)
+        return self.link.proxy(name, typ)
 
     def log_tail(self):
         return []
@@ -272,13 +272,9 @@ def _hands(studio, model):
 
 def _record(studio, action, sim_time):
     """Add a runner action to the recording at ``sim_time`` (when recording is on)."""
-    r = studio.recorder
-    if not r.on:
-        return None
-    entry = dict({'id': 'a%d' % (len(r.actions) + 1),
-                  'at': max(0.0, round(float(sim_time) - r.t0, 3))}, **action)
-    r.actions.append(entry)
-    studio._tell_recording_threadsafe()
+    entry = studio.recorder.add_action(action, sim_time)
+    if entry is not None:
+        studio._tell_recording_threadsafe()
     return entry
 
 

@@ -91,6 +91,14 @@ class Recorder(object):
                 a['value'] = f['value']
         else:
             return None
+        return self.add_action(a, sim_time)
+
+    def add_action(self, a, sim_time):
+        """Record the runner's action ``a`` (a dict with ``action``) carried out at
+        ``sim_time`` (an extension's op, e.g. a walk); the timeline entry, or None while
+        recording is off."""
+        if not self.on:
+            return None
         at = max(0.0, round(float(sim_time) - self.t0, 3))
         last = self.actions[-1] if self.actions else None
         if last is not None and last['at'] == at and a['action'] == 'set_model_state' and \

@@ -149,7 +149,9 @@ class WorldLink(object):
         return out
 
     # -- services ---------------------------------------------------------------------------
-    def _proxy(self, name, typ):
+    def proxy(self, name, typ):
+        """The persistent ServiceProxy of service ``name`` (made once; dropped when a call
+        through ``_call`` fails, so the next call reconnects)."""
         with self._lock:
             if name not in self._proxies:
                 self._proxies[name] = self.rospy.ServiceProxy(name, typ, persistent=True)
@@ -157,7 +159,7 @@ class WorldLink(object):
 
     def _call(self, name, typ, *args):
         try:
-            res = self._proxy(name, typ)(*args)
+            res = self.proxy(name, typ)(*args)
         except Exception as e:  # noqa: BLE001 - gone service, refused connection
             with self._lock:
                 px = self._proxies.pop(name, None)

@@ -255,3 +255,38 @@ def test_topics_are_looked_at_again_when_something_can_have_made_new_ones():
     assert c.topics_new and not c.topics_stale()
     c.run.t = TOPIC_RECHECK
     assert c.topics_stale()
+
+
+def test_live_says_each_verdict_the_moment_it_is_decided():
+    """run_scenario --live: Runner.drain says 'decided <verdict line>' once, when an
+    expectation is decided (an eventually met, an always broken), and nothing for one still
+    open; without --live it says nothing."""
+    import types
+    from testing_instance.run.runner import Runner
+    from testing_instance.scenario.expect import Expectation
+    from testing_instance.scenario.timeline import Conditions
+    from std_msgs.msg import Float64
+
+    def runner(live):
+        said = []
+        es = [Expectation({'name': 'up', 'topic': '/x', 'field': 'data',
+                           'eventually': {'gt': 2}}),
+              Expectation({'name': 'low', 'topic': '/x', 'field': 'data',
+                           'always': {'lt': 3}}),
+              Expectation({'name': 'open', 'topic': '/x', 'field': 'data',
+                           'eventually': {'gt': 100}})]
+        for e in es:
+            e.begin(0.0)
+        batches = [[(0.1, 0, '/x', Float64(1.0))], [(0.2, 0, '/x', Float64(2.5))],
+                   [(0.3, 0, '/x', Float64(3.5)), (0.4, 0, '/x', Float64(9.0))]]
+        fake = types.SimpleNamespace(
+            live=live, say=said.append, by_topic={'/x': es}, conditions=Conditions([]),
+            collector=None, inbox=types.SimpleNamespace(take=lambda: batches.pop(0)))
+        for _ in range(3):
+            Runner.drain(fake)
+        return said, es
+    said, es = runner(True)
+    assert said == ['decided PASS up: ' + es[0].verdict.line().split(': ', 1)[1],
+                    'decided FAIL low: ' + es[1].verdict.line().split(': ', 1)[1]]
+    assert es[0].verdict.t == 0.2 and es[1].verdict.t == 0.3 and es[2].verdict is None
+    assert runner(False)[0] == []

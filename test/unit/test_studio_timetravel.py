@@ -271,7 +271,11 @@ def test_the_run_copy_records_the_poses_and_finds_the_files_beside_the_scenario(
 def test_the_command_lines_of_a_run_a_local_sweep_and_a_cluster_sweep():
     one = run_command('/d/s.yaml', '/d')
     assert one[1:] == [timetravel_runner(), '/d/s.yaml', '--record', '/d/run.mcap',
-                       '--report', '/d/report']
+                       '--report', '/d/report', '--live']
+    # run_scenario takes what the studio gives it
+    from testing_instance.farm.command import parser
+    a = parser('run_scenario').parse_args(one[2:])
+    assert a.live and a.record == ['/d/run.mcap'] and a.report == '/d/report'
     local = run_command('/d/s.yaml', '/d', sweep=True, jobs=3)
     assert local[3:] == ['--sweep', '--out', '/d/sweep', '--json', '/d/sweep.json',
                          '--report', '/d/report', '--jobs', '3']
@@ -292,6 +296,8 @@ FAKE_RUNNER = textwrap.dedent('''\
     def opt(k):
         return a[a.index(k) + 1] if k in a else None
     print('  t=0.500 s: turn (rotate)', flush=True)
+    time.sleep(0.3)
+    print('decided PASS acc_up: expected ...; actual 1.4; at t=1.400 s', flush=True)
     time.sleep(0.3)
     print('PASS acc_up: expected ...; actual 1.5; at t=1.500 s', flush=True)
     time.sleep(0.3)
@@ -334,9 +340,15 @@ def test_a_run_streams_its_lines_and_verdicts_then_its_report_and_recording(tmp_
     msgs = [m for _, m in seen]
     assert kinds == {'tt_run'}
     running = [m for m in msgs if m['state'] == 'running']
-    # the verdicts arrived one by one while it ran
-    assert [len(m['verdicts']) for m in running][-3:] == [0, 1, 2]
+    # the verdicts arrived one by one while it ran: acc_up as it was decided (--live), then
+    # its line at the end in its place, then turned
+    assert [len(m['verdicts']) for m in running][-4:] == [0, 1, 1, 2]
+    first = [m for m in running if m['verdicts']][0]['verdicts'][0]
+    assert first == {'status': 'PASS', 'name': 'acc_up', 't': 1.4, 'live': True,
+                     'line': 'PASS acc_up: expected ...; actual 1.4; at t=1.400 s'}
+    assert running[-1]['verdicts'][0]['t'] == 1.5 and not running[-1]['verdicts'][0]['live']
     assert running[-1]['verdicts'][1] == {'status': 'FAIL', 'name': 'turned', 't': 1.2,
+                                          'live': False,
                                           'line': running[-1]['lines'][-1].strip()}
     end = msgs[-1]
     assert (end['state'], end['status'], end['code']) == ('done', 'FAIL', 1)

@@ -14,7 +14,7 @@ Verdicts and expectation windows come from the run's ``report.json`` (``run_scen
 --report``) found beside the recording (its folder, ``report/`` in it, or ``<stem>_report``).
 The expectations' topic and field are read from the report's ``expected`` text.
 
-Runs: ``tt_run`` starts ``run_scenario FILE --record run.mcap --report report`` (or
+Runs: ``tt_run`` starts ``run_scenario FILE --record run.mcap --report report --live`` (or
 ``--sweep --jobs N --out ... [--cluster ADDRESS]``) in a folder of the studio's run dir and
 answers at once; its output lines, the verdicts parsed from them and, at its end, its status,
 report URL and recording path are the ``tt_run`` stream (latest wins: each message holds all
@@ -350,7 +350,7 @@ def run_command(scenario, run_dir, sweep=False, jobs=2, cluster=None, cpus_per_r
     cmd = [sys.executable, runner or RUN_SCENARIO, scenario]
     if not sweep:
         return cmd + ['--record', os.path.join(run_dir, 'run.mcap'),
-                      '--report', os.path.join(run_dir, 'report')]
+                      '--report', os.path.join(run_dir, 'report'), '--live']
     cmd += ['--sweep', '--out', os.path.join(run_dir, 'sweep'),
             '--json', os.path.join(run_dir, 'sweep.json'),
             '--report', os.path.join(run_dir, 'report')]
@@ -374,11 +374,19 @@ class Run(object):
         self.lines.append(line)
         del self.lines[:-MAX_LINES]
         text = PREFIX.sub('', line.strip())
-        m = VERDICT.match(text)
+        # run_scenario --live says each verdict when it is decided ('decided PASS x: ...'),
+        # and all of them again at the end: one entry per expectation, the latest line
+        live = text.startswith('decided ')
+        m = VERDICT.match(text[len('decided '):] if live else text)
         if m and m.group(2) != 'scenario':
             t = AT_T.search(text)
-            self.verdicts.append({'status': m.group(1), 'name': m.group(2), 'line': text,
-                                  't': float(t.group(1)) if t else None})
+            v = {'status': m.group(1), 'name': m.group(2), 'line': m.group(0),
+                 't': float(t.group(1)) if t else None, 'live': live}
+            old = [i for i, x in enumerate(self.verdicts) if x['name'] == v['name']]
+            if old:
+                self.verdicts[old[0]] = v
+            else:
+                self.verdicts.append(v)
 
     def message(self, url):
         out = {'run': self.n, 'state': self.state, 'sweep': self.sweep, 'lines': self.lines,

@@ -70,6 +70,10 @@ def parser(prog):
                    '2 invalid with FILE:LINE messages')
     p.add_argument('--port', type=int, metavar='P', help='master port of this run (default: a '
                    'free one; another is taken when P is busy)')
+    p.add_argument('--live', action='store_true', help='also print each expectation\'s '
+                   'verdict the moment it is decided, as "decided PASS|FAIL|ERROR NAME: ... '
+                   'at t=T s" (an eventually met, an always or never broken; the studio puts '
+                   'them on its timeline during the run); the verdicts at the end are as without')
     p.add_argument('--gtest_output', help=argparse.SUPPRESS)   # rostest passes xml:PATH
     p.add_argument('--text', action='store_true', help=argparse.SUPPRESS)
     return p
@@ -134,6 +138,8 @@ def run_one(a, path, out=None, **kw):
     except ScenarioError as e:
         (out or print)('ERROR ' + '\n  '.join(e.problems))
         return None
+    if getattr(a, 'live', False):
+        kw['live'] = True
     return run_file(path, values=values, seed=a.seed, record=record_arg(a.record),
                     junit=a.junit, real_time_factor=a.rtf, report=a.report, out=out, **kw)
 

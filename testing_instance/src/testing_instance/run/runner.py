@@ -61,8 +61,9 @@ __all__ = ['Runner', 'RunError', 'Result', 'run_file', 'free_port', 'EXIT_PASS',
 class Runner(object):
     def __init__(self, scenario, seed=None, real_time_factor=None, record=None, junit=None,
                  attach=False, replay=None, out=None, run_dir=None, port=None, report=None,
-                 warm=None, embedded=False, on_start=None):
+                 warm=None, embedded=False, on_start=None, live=False):
         self.sc = scenario
+        self.live = live           # say each verdict when it is decided (--live)
         self.on_start = on_start   # called at sim time 0 (a farm's worker tells its pool)
         self.seed = scenario.seed if seed is None else int(seed)
         self.rtf = scenario.real_time_factor if real_time_factor is None \
@@ -316,7 +317,10 @@ class Runner(object):
     def drain(self):
         for t, _s, topic, msg in self.inbox.take():
             for e in self.by_topic.get(topic, ()):
-                e.feed(t, msg)
+                if e.verdict is None:
+                    e.feed(t, msg)
+                    if self.live and e.verdict is not None:
+                        self.say('decided ' + e.verdict.line())
             try:
                 self.conditions.feed(topic, t, msg)
             except ConditionError as e:

@@ -35,9 +35,13 @@ def _yaml(page):
 
 def test_a_picked_field_is_plotted_and_a_clicked_point_becomes_an_expectation(page):
     page.locator(PICK).click(no_wait_after=True)
+    # the history starts at the pick (4 values a second): wait until the drawn points span
+    # 30 px of the 30 s axis, so that a line, not a dot, is there to be seen
     page.wait_for_function(
-        "studio.plots.fields.length === 1 && studio.plots.points.filter("
-        "(p) => p[2].field === %r).length >= 3" % FIELD, timeout=30000)
+        "(() => { const ps = studio.plots.points.filter((p) => p[2].field === %r); "
+        "if (studio.plots.fields.length !== 1 || ps.length < 3) return false; "
+        "const xs = ps.map((p) => p[0]); return Math.max(...xs) - Math.min(...xs) >= 30; })()"
+        % FIELD, timeout=60000)
     legend = page.get_by_test_id('plot-legend').text_content()
     assert TOPIC + ' ' + FIELD in legend, legend
     color = page.evaluate('studio.plots.fields[0].color')           # '#rgb'

@@ -42,7 +42,8 @@ def _tree(root):
 
         def _note(name):
             with open(os.path.join(%r, 'seen.jsonl'), 'a') as f:
-                f.write(json.dumps([name, os.environ.get('PYTEST_XDIST_WORKER')]) + '\\n')
+                f.write(json.dumps([name, os.environ.get('PYTEST_XDIST_WORKER'),
+                                    os.getpriority(os.PRIO_PROCESS, 0)]) + '\\n')
         ''' % root)
     files = {'test/test_core.py': 3, 'test/test_world.py': 3, 'test/test_vm.py': 1,
              'test/unit/test_a.py': 4, 'test/unit/test_b.py': 4}
@@ -64,14 +65,23 @@ def test_integration_tests_share_one_worker_and_the_light_lane_the_other(tmp_pat
     assert r.returncode == 0, r.stdout[-3000:]
     seen = [json.loads(l) for l in open(os.path.join(root, 'seen.jsonl'))]
     assert len(seen) == total, seen
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    nice = {name: n for name, _w, n in seen}
+    # a light test runs nice (the qemu test does not), an integration test at the priority
+    # the run was started with
+    assert {nice[n] for n in nice if n.startswith('test/unit/')} == \
+        {max(base, lanes.LIGHT_NICE)}, nice
+    assert nice['test/test_vm.py::0'] == base and \
+        {nice[n] for n in nice if n.startswith(('test/test_core', 'test/test_world'))} == \
+        {base}, nice
     workers = {}
-    for name, worker in seen:
+    for name, worker, _n in seen:
         workers.setdefault(lanes.lane(name.split('::')[0] + '::t'), set()).add(worker)
     assert len(workers[lanes.INTEGRATION]) == 1, workers
     assert len(workers[lanes.LIGHT]) == 1, workers
     assert workers[lanes.INTEGRATION] != workers[lanes.LIGHT], workers
     # and in each lane in collection order
-    integ = [n for n, _ in seen if lanes.lane(n) == lanes.INTEGRATION]
+    integ = [n for n, _w, _n in seen if lanes.lane(n) == lanes.INTEGRATION]
     assert integ == sorted(integ, key=lambda n: (n.split('::')[0], int(n.split('::')[1])))
 
 
@@ -97,3 +107,19 @@ def test_without_xdist_nothing_is_marked():
     lanes.pytest_collection_modifyitems(None, Config(), items)
     assert [it.marks[0].kwargs.get('name', it.marks[0].args[0]) for it in items] == \
         [lanes.INTEGRATION, lanes.LIGHT]
+
+
+def test_no_two_test_files_share_a_name():
+    """pytest imports test files by their base name (no packages): two files of one name in
+    test/ and test/unit/ make the second an import-mismatch error and its tests never run
+    (test/unit/test_studio_editor.py beside test/test_studio_editor.py, 2026-12-06)."""
+    import collections
+    root = os.path.dirname(HERE)
+    names = collections.defaultdict(list)
+    for d, _dirs, files in os.walk(root):
+        if '__pycache__' in d or os.sep + 'data' in d[len(root):]:
+            continue
+        for f in files:
+            if f.startswith('test_') and f.endswith('.py'):
+                names[f].append(os.path.relpath(os.path.join(d, f), root))
+    assert {n: p for n, p in names.items() if len(p) > 1} == {}

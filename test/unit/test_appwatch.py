@@ -134,7 +134,9 @@ def test_while_an_app_runs_the_queues_are_read_only_now_and_then(spawn, monkeypa
     reads.clear()
     w2 = AppWatch([('/spin', w.apps[0][1])], limit=0.5, full_every=0.0)   # every look
     waited(w2)
-    assert len(reads) > 20
+    # more than the throttled watch's most (10): a look every 2 ms gives hundreds on an idle
+    # machine, 17 in the light lane at nice 10 under the integration tests (2026-12-06)
+    assert len(reads) > 10
 
 
 def test_a_running_app_that_never_reads_its_connection_is_still_found_hung(spawn):

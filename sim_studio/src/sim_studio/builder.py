@@ -137,23 +137,9 @@ def _plugin_elements(root):
 def _holder(spec, row):
     """The element whose text ``find_text(spec, row)`` reads (the plugin element's children,
     the sensor's, then the row's SDF paths), or None."""
-    from sim_world.model import _local
-    for parent in (spec.element, spec.sensor):
-        if parent is None:
-            continue
-        for n in row.names:
-            for child in parent:
-                if _local(child.tag) == n and child.text is not None and child.text.strip():
-                    return child
-    for path in row.paths:
-        cur = spec.sensor
-        for name in path:
-            if cur is None:
-                break
-            cur = next((c for c in cur if _local(c.tag) == name), None)
-        if cur is not None and cur.text is not None and cur.text.strip():
-            return cur
-    return None
+    from sim_world.plugins.params import find_elements
+    found = find_elements(spec, row)
+    return found[0] if found else None
 
 
 def _namespaces(text):

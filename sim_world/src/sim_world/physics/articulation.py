@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ..model import ModelError
-from ..transforms import Pose
+from ..transforms import Pose, _quat_multiply
 from .base import BodySpec, lump_links
 
 __all__ = ['Group', 'JointState', 'Articulation', 'BodyPoses', 'build_articulation',
@@ -203,16 +203,6 @@ def build_articulation(model):
     return art
 
 
-def _qmul(a, b):
-    """Quaternion product a * b of (x, y, z, w) float tuples."""
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-            aw * bw - ax * bx - ay * by - az * bz)
-
-
 def _rot(q, v):
     """Unit quaternion q (x, y, z, w) applied to v, in plain floats."""
     x, y, z, w = q
@@ -268,13 +258,13 @@ class BodyPoses(object):
                 continue
             a = j.axis / max(np.linalg.norm(j.axis), 1e-12)
             ax, ay, az = (float(v) for v in a)
-            A = _qmul(kq, cq)
+            A = _quat_multiply(kq, cq)
             if j.type == 'prismatic':
                 axis = tuple(float(v) for v in j.axis)
                 consts.append((g.parent, self.SLIDE, j.name, None) + A + (0.0,) * 4
                               + _add(kp, _rot(kq, cp)) + _rot(kq, axis) + zero)
                 continue
-            B = _qmul(_qmul(kq, (ax, ay, az, 0.0)), cq)
+            B = _quat_multiply(_quat_multiply(kq, (ax, ay, az, 0.0)), cq)
             along = ax * cp[0] + ay * cp[1] + az * cp[2]
             par_part = (ax * along, ay * along, az * along)
             across = (cp[0] - par_part[0], cp[1] - par_part[1], cp[2] - par_part[2])

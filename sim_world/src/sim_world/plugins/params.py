@@ -172,9 +172,9 @@ class ParamValues(object):
         return hasattr(self, name)
 
 
-def find_texts(spec, row):
-    """Texts of every element naming ``row``, in the order they count: the plugin element,
-    the sensor element, then the row's SDF paths below the sensor."""
+def find_elements(spec, row):
+    """Every element naming ``row`` with a non-blank text, in the order they count: the
+    plugin element, the sensor element, then the row's SDF paths below the sensor."""
     out = []
     for parent in (spec.element, spec.sensor):
         if parent is None:
@@ -182,7 +182,7 @@ def find_texts(spec, row):
         for n in row.names:
             for child in parent:
                 if _local(child.tag) == n and child.text is not None and child.text.strip():
-                    out.append(child.text)
+                    out.append(child)
     for path in row.paths:
         cur = spec.sensor
         for name in path:
@@ -190,8 +190,13 @@ def find_texts(spec, row):
                 break
             cur = next((c for c in cur if _local(c.tag) == name), None)
         if cur is not None and cur.text is not None and cur.text.strip():
-            out.append(cur.text)
+            out.append(cur)
     return out
+
+
+def find_texts(spec, row):
+    """Texts of every element naming ``row``, in the order they count (find_elements)."""
+    return [e.text for e in find_elements(spec, row)]
 
 
 def find_text(spec, row):

@@ -21,8 +21,8 @@ def test_the_rule():
     assert lanes.lane('test/test_bench.py::test_bench_quick[scenario]') == lanes.LIGHT
     assert lanes.lane('test/test_tinyros.py::test_fuzz') == lanes.LIGHT
     assert lanes.lane('test/test_core.py::test_a') == lanes.INTEGRATION
-    assert lanes.lane('test/test_readme_commands.py::test_p[docs/unit/x.md]') == \
-        lanes.INTEGRATION
+    assert lanes.lane('test/test_readme_commands.py::test_p[docs/unit/x.md]') == lanes.LIGHT
+    assert lanes.lane('test/test_studio.py::test_p[test/unit/x]') == lanes.INTEGRATION
     assert lanes.lane('test/unitary.py::t') == lanes.INTEGRATION
 
 

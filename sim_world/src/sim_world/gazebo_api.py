@@ -6,6 +6,10 @@ Services (gazebo_msgs-compatible types from this package, same md5sums):
   /gazebo/unpause_physics  /gazebo/reset_world      /gazebo/reset_simulation
   /gazebo/step_world (mobile_device_sim/StepWorld: run until a sim time, then pause; the
   testing instance's lockstep)
+  /gazebo/get_physics_properties  /gazebo/set_physics_properties (the pace as
+  max_update_rate, gravity, ODE's solver: sim_world.physics_api)
+  /gazebo/get_model_description (mobile_device_sim/GetModelDescription: the URDF or SDF a
+  model was spawned from, or its world file's <model>; the studio draws late models by it)
 Topics: /clock, /gazebo/model_states, /gazebo/set_model_state (subscriber), /tf, /tf_static.
 
 Every service answers ``success: false`` with a ``status_message`` naming the bad input
@@ -24,14 +28,15 @@ from std_srvs.srv import Empty, EmptyResponse
 from tf2_msgs.msg import TFMessage
 
 from mobile_device_sim.msg import ModelState, ModelStates
-from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelState,
+from mobile_device_sim.srv import (DeleteModel, DeleteModelResponse, GetModelDescription,
+                                   GetModelDescriptionResponse, GetModelState,
                                    GetModelStateResponse, SetModelState, SetModelStateResponse,
                                    SpawnModel, SpawnModelResponse, StepWorld,
                                    StepWorldResponse)
 
 from . import srvcheck, transport
 from .model import ModelError
-from .spawn import spawn_xml
+from .spawn import model_description, spawn_xml
 from .transforms import InvalidPose
 
 __all__ = ['GazeboRosApi', 'run_loop', 'tf_frame']
@@ -81,6 +86,7 @@ class GazeboRosApi(object):
         self.paused = paused
         self.reset_anchor = threading.Event()   # tells the run loop to re-anchor pacing
         self.step_until = None                   # step_world: pause at this sim time
+        self.real_time_factor = None             # the pace (run_loop's; set_physics_properties)
         self.step_done = threading.Event()
         self._get_seq = 0
         self._last_tf_stamp = None
@@ -102,6 +108,8 @@ class GazeboRosApi(object):
             transport.service('/gazebo/spawn_urdf_model', SpawnModel, self.spawn_urdf_model),
             transport.service('/gazebo/spawn_sdf_model', SpawnModel, self.spawn_sdf_model),
             transport.service('/gazebo/delete_model', DeleteModel, self.delete_model),
+            transport.service('/gazebo/get_model_description', GetModelDescription,
+                              self.get_model_description),
             transport.service('/gazebo/pause_physics', Empty, self.pause),
             transport.service('/gazebo/unpause_physics', Empty, self.unpause),
             transport.service('/gazebo/reset_world', Empty, self.reset_world),
@@ -114,6 +122,8 @@ class GazeboRosApi(object):
         self.joint_api = JointRosApi(self)
         from .attacher import LinkAttacher      # /gazebo/attach, /gazebo/detach
         self.attacher = LinkAttacher(self)
+        from .physics_api import PhysicsRosApi  # /gazebo/{get,set}_physics_properties
+        self.physics_api = PhysicsRosApi(self)
 
     def attach(self, world, spawned=None):
         """Serve ``world`` from now on (sim_world's /gazebo/reload_world swaps in a new one;
@@ -227,6 +237,16 @@ class GazeboRosApi(object):
             rospy.logwarn(msg)
             return DeleteModelResponse(False, msg)
         return DeleteModelResponse(True, 'DeleteModel: successfully deleted model')
+
+    @srvcheck.answers(GetModelDescriptionResponse, 'GetModelDescription', log='warn')
+    def get_model_description(self, req):
+        """The description a model was made from (sim_world.spawn.model_description): a
+        spawned model's request, a world-file model's <model> element."""
+        res = GetModelDescriptionResponse(*model_description(self.world, req.model_name,
+                                                             self.spawned))
+        if not res.success:
+            rospy.logwarn(res.status_message)
+        return res
 
     @srvcheck.answers(EmptyResponse, 'pause_physics')
     def pause(self, _req):
@@ -372,10 +392,11 @@ class GazeboRosApi(object):
 def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds=0.005,
              should_stop=None):
     """Step the world until ROS shuts down, paced to ``real_time_factor`` (0 = as fast as
-    possible), publishing the API's topics at ``publish_rate`` Hz of wall time."""
+    possible; ``api.real_time_factor`` from then on, which /gazebo/set_physics_properties
+    changes), publishing the API's topics at ``publish_rate`` Hz of wall time."""
     should_stop = should_stop or rospy.is_shutdown
     mono = time.monotonic
-    rtf = float(real_time_factor)
+    rtf = api.real_time_factor = float(real_time_factor)
     wall0, sim0 = mono(), world.sim_time
     next_pub = wall0
     pub_period = 1.0 / publish_rate if publish_rate > 0 else math.inf
@@ -384,6 +405,7 @@ def run_loop(world, api, real_time_factor=1.0, publish_rate=100.0, batch_seconds
         if api.reset_anchor.is_set():
             api.reset_anchor.clear()
             wall0, sim0 = now, world.sim_time
+            rtf = api.real_time_factor
         if api.step_until is not None and api._step_reached():
             continue
         if api.paused:

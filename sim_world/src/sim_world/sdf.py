@@ -183,7 +183,8 @@ def _sdf_element(text, tag, what, malformed):
 
 def parse_sdf_model(mel, base_dir=None, what=None):
     """An SDF <model> element (or its XML text) -> Model."""
-    if isinstance(mel, (str, bytes)):
+    source = mel if isinstance(mel, (str, bytes)) else None
+    if source is not None:
         mel = _sdf_element(mel, 'model', 'SDF text', 'malformed SDF')
     name = mel.get('name')
     if not name:
@@ -234,6 +235,11 @@ def parse_sdf_model(mel, base_dir=None, what=None):
         if not fn:
             raise ModelError('%s plugin has no filename' % what)
         model.plugins.append(PluginSpec(fn, pel.get('name', ''), pel))
+    # what the model was read from (/gazebo/get_model_description answers with it)
+    model.source_xml = source.decode('utf-8', 'replace') if isinstance(source, bytes) \
+        else source
+    if model.source_xml is None:
+        model.source_xml = ET.tostring(mel, encoding='unicode')
     return model.validate()
 
 

@@ -21,7 +21,8 @@ of another model's is refused (sim_world.world.World.add_model), naming both and
 import argparse
 import sys
 
-__all__ = ['parse_args', 'main', 'spawn_xml', 'one_line', 'fill_robot_namespace']
+__all__ = ['parse_args', 'main', 'spawn_xml', 'one_line', 'fill_robot_namespace',
+           'model_description']
 
 
 def one_line(text):
@@ -119,6 +120,44 @@ def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_
             return False, 'SpawnModel: model %r not spawned: reference_frame: %s' % (
                 name, e.args[0])
     return True, 'SpawnModel: Successfully spawned entity'
+
+
+def model_description(world, name, spawned=None):
+    """What /gazebo/get_model_description answers for model ``name`` of ``world``:
+    ``(success, status_message, format, xml, robot_namespace, base_dir)``. A spawned model
+    (``spawned``: {name: (kind, SpawnModel request)}, gazebo_api's) gives its request's
+    ``model_xml`` and ``robot_namespace`` as sent (kind 'urdf' or 'sdf'); a model of the world
+    file its ``<model>`` element ('sdf', no namespace); ``base_dir`` is the folder the model's
+    relative mesh and texture paths resolve against. An unknown model, or one the world keeps
+    no description of (added by code), is ``False`` with a message naming it."""
+    with world.lock:
+        model = world.models.get(name)
+        if model is None:
+            return (False, one_line('GetModelDescription: no model named %r (the world has: %s)'
+                                    % (name, ', '.join(sorted(world.models)) or 'none')),
+                    '', '', '', '')
+        base_dir = model.base_dir or ''
+        source = model.source_xml
+    entry = (spawned or {}).get(name)
+    if entry is not None:
+        kind, req = entry
+        return (True, 'GetModelDescription: model %r as spawned' % name, kind,
+                req.model_xml, req.robot_namespace or '', base_dir)
+    if not source:
+        return (False, one_line('GetModelDescription: the world keeps no description of model '
+                                '%r (not spawned, not from the world file)' % name),
+                '', '', '', '')
+    return (True, 'GetModelDescription: model %r as the world file has it' % name,
+            'urdf' if _urdf_text(source) else 'sdf', source, model.robot_namespace or '', base_dir)
+
+
+def _urdf_text(text):
+    """Whether description text is a URDF (its root is <robot>)."""
+    import xml.etree.ElementTree as ET
+    try:
+        return ET.fromstring(text).tag == 'robot'
+    except ET.ParseError:
+        return False
 
 
 def parse_args(argv):

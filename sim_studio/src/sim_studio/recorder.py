@@ -114,18 +114,24 @@ class Recorder(object):
     def expect(self, f):
         """Add the expectation of an ``expect`` command's fields; returns its entry."""
         base = re.sub(r'\W+', '_', f['field']).strip('_') or 'value'
-        names = {e['name'] for e in self.expects}
-        name = f['name'] or base
-        i = 1
-        while name in names:
-            i += 1
-            name = '%s_%d' % (f['name'] or base, i)
         check = {'equals': {'equals': f['target']},
                  'near': {'near': f['target'], 'tol': f['tol']},
                  'between': {'between': [f['lo'], f['hi']]}}[f['check']]
-        e = {'name': name, 'topic': f['topic'], 'field': f['field'], f['mode']: check}
+        e = {'topic': f['topic'], 'field': f['field'], f['mode']: check}
         if f['start'] is not None:
             e['window'] = [f['start'], f['end']]
+        return self.add_expect(e, f['name'] or base)
+
+    def add_expect(self, entry, name):
+        """Add the runner's expectation ``entry`` (a dict without its name; an extension's,
+        e.g. a decoded barcode) named ``name``, or ``name_2``... when that is taken;
+        returns it with its name first."""
+        names = {e['name'] for e in self.expects}
+        unique, i = name, 1
+        while unique in names:
+            i += 1
+            unique = '%s_%d' % (name, i)
+        e = dict({'name': unique}, **entry)
         self.expects.append(e)
         return e
 

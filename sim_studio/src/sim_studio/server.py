@@ -2,14 +2,16 @@
 ``GET /api/scene``, and the one command handler they share (``Studio.handle``).
 
 Streams: every client of ``/ws`` gets the model poses, sim time and real-time factor
-(``{"type": "poses"}``) at ``rate`` Hz and the phone camera's latest JPEG (a binary
-message) at most ``camera_rate`` Hz. Each client has one slot per stream that the next
+(``{"type": "poses"}``) at ``rate`` Hz, the phone camera's latest JPEG (a binary
+message) at most ``camera_rate`` Hz and each phone display's image topic as JPEG
+(``{"type": "display"}``) at most ``display_rate`` Hz. Each client has one slot per stream that the next
 value overwrites: a slow client gets the latest and loses the rest; nothing waits for it.
 
 Control: one client holds control (the first that sends a command needing it, or asks with
 ``{"op": "control", "take": true}``); the others are read-only until it lets go or leaves.
 ``POST /api/cmd`` from 127.0.0.1 acts under the holder's control."""
 import asyncio
+import base64
 import json
 import os
 import re
@@ -111,6 +113,11 @@ class Studio(object):
         self.runs = 0
         self.last_jpeg = None
         self.want_camera = False
+        self.display_rate = camera_rate  # Hz at most of each phone display's images
+        self.want_display = False        # a new client: send the displays' latest again
+        self._disp = {}                  # model -> (when its image went out, its seq)
+        self._disp_jpeg = {}             # topic -> (seq, base64 JPEG)
+        self._displays_watched = False
         self.device = None           # device.DeviceWatch (None: no device panel)
         self.device_rate = 4.0       # Hz of the device panel's values
         self._device_at = [0.0, 0.0]  # when they went out, when topics were looked for
@@ -377,7 +384,53 @@ class Studio(object):
                 if jpeg:
                     for c in self.clients:
                         c.put('camera', jpeg)
+            await self._stream_displays(loop, now)
             await self._stream_device(loop, now)
+
+    def displays(self):
+        """[(model, image topic)] of the known phones whose display shows an image topic
+        (textvid's video texture: scene.display_of)."""
+        return [(m['name'], m['display']['image_topic']) for m in self.scene_models
+                if m.get('display') and m['display'].get('image_topic')]
+
+    async def _stream_displays(self, loop, now):
+        """Each phone display's image topic as its own stream (``{"type": "display",
+        "model", "topic", "t", "jpeg": base64}``, slot ``display:MODEL``, latest wins) at
+        most ``display_rate`` Hz, a new image only; the topics are subscribed (queue size 1)
+        once a client watches. A display that shows the camera topic reuses its JPEG."""
+        shown = self.displays()
+        if not shown or not self.display_rate > 0:
+            return
+        w = self.world
+        if not self._displays_watched and hasattr(w, 'watch_images'):
+            self._displays_watched = True
+            await loop.run_in_executor(None, w.watch_images, sorted({t for _m, t in shown}))
+        if self.want_display:
+            self.want_display = False
+            self._disp.clear()
+        seqs = getattr(w, 'image_seqs', {})
+        for model, topic in shown:
+            last_at, last_seq = self._disp.get(model, (0.0, -1))
+            seq = seqs.get(topic, 0)
+            if not seq or seq == last_seq or now - last_at < 1.0 / self.display_rate:
+                continue
+            cached = self._disp_jpeg.get(topic)
+            if cached is None or cached[0] != seq:
+                if topic == getattr(w, 'camera_topic', None) and \
+                        getattr(self, '_cam', (0, -1))[1] == seq and \
+                        self.last_jpeg:
+                    jpeg = self.last_jpeg
+                else:
+                    jpeg = await loop.run_in_executor(None, w.image_jpeg, topic)
+                cached = self._disp_jpeg[topic] = (seq, base64.b64encode(jpeg).decode()
+                                                   if jpeg else None)
+            self._disp[model] = (now, seq)
+            if cached[1]:
+                msg = json.dumps({'v': protocol.VERSION, 'type': 'display', 'model': model,
+                                  'topic': topic, 't': w.clock, 'jpeg': cached[1]},
+                                 separators=(',', ':'))
+                for c in self.clients:
+                    c.put('display:' + model, msg)
 
     async def _stream_device(self, loop, now):
         """The device panel's values to the clients that asked, at ``device_rate`` Hz;
@@ -469,6 +522,7 @@ def make_app(studio):
                                    'camera_topic': getattr(studio.world, 'camera_topic',
                                                            None)}))
         studio.want_camera = True
+        studio.want_display = True
         pump = asyncio.ensure_future(c.pump())
         try:
             async for msg in ws:

@@ -2,12 +2,12 @@
 instance's actions call (/gazebo/set_model_state, <ns>/inject_touch, <ns>/press_button,
 /gazebo/set_environment, /gazebo/set_sensor_fault, /gazebo/step_world, pause/unpause,
 reset), and the latest of what the world publishes (/gazebo/model_states, /clock, the
-phone camera's image). The subscribers only keep the latest message: nothing here can hold
+phone camera's image, the image topics the phones' displays show: ``watch_images``). The subscribers only keep the latest message: nothing here can hold
 the world back."""
 import threading
 import time
 
-__all__ = ['WorldLink', 'WorldError']
+__all__ = ['WorldLink', 'WorldError', 'jpeg_of']
 
 
 class WorldError(RuntimeError):
@@ -27,6 +27,8 @@ class WorldLink(object):
         self.states_seq = 0
         self.image = None             # the latest sensor_msgs/Image of camera_topic
         self.image_seq = 0
+        self.images = {}              # topic -> its latest sensor_msgs/Image (watch_images)
+        self.image_seqs = {}          # topic -> how many arrived
         self.clock = 0.0              # the latest /clock (s)
         self._rtf = []                # [(wall, sim)] samples of the last seconds
         self._proxies = {}
@@ -38,6 +40,7 @@ class WorldLink(object):
         self.links_rate = 20.0        # Hz at most of asking for the links' poses
         self.links_rest_rate = 2.0    # Hz once they have kept still for REST_POLLS asks
         self._still = 0               # asks in a row that found every link where it was
+        self._watched = set()         # image topics subscribed by watch_images
 
     def start(self):
         from rosgraph_msgs.msg import Clock
@@ -115,6 +118,24 @@ class WorldLink(object):
     def _on_image(self, msg):
         self.image = msg
         self.image_seq += 1
+        self._on_topic_image(msg, self.camera_topic)
+
+    def _on_topic_image(self, msg, topic):
+        self.images[topic] = msg
+        self.image_seqs[topic] = self.image_seqs.get(topic, 0) + 1
+
+    def watch_images(self, topics):
+        """Subscribe (queue size 1, once each) to the image ``topics`` not yet watched (the
+        camera topic is already): their latest images are ``images[topic]``, counted in
+        ``image_seqs[topic]``. Blocks on the master: call it from a worker thread."""
+        from sensor_msgs.msg import Image
+        for topic in topics:
+            if topic == self.camera_topic or topic in self._watched:
+                continue
+            self._watched.add(topic)
+            self.subs.append(self.rospy.Subscriber(
+                topic, Image, self._on_topic_image, callback_args=topic, queue_size=1,
+                buff_size=2 ** 24))
 
     def _on_clock(self, msg):
         t = msg.clock.to_sec()
@@ -230,20 +251,29 @@ class WorldLink(object):
 
     def camera_jpeg(self, quality=70):
         """The latest camera image as JPEG bytes (None: none yet)."""
-        msg = self.image
-        if msg is None:
-            return None
-        import cv2
-        import numpy as np
-        enc = msg.encoding
-        ch = {'rgb8': 3, 'bgr8': 3, 'rgba8': 4, 'bgra8': 4, 'mono8': 1}.get(enc)
-        if ch is None:
-            return None
-        a = np.frombuffer(msg.data, np.uint8)[:msg.height * msg.step].reshape(
-            msg.height, msg.step)[:, :msg.width * ch].reshape(msg.height, msg.width, ch)
-        if enc.startswith('rgb'):
-            a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGR if ch == 4 else cv2.COLOR_RGB2BGR)
-        elif enc == 'bgra8':
-            a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
-        ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
-        return buf.tobytes() if ok else None
+        return jpeg_of(self.image, quality)
+
+    def image_jpeg(self, topic, quality=70):
+        """The latest image of a watched ``topic`` as JPEG bytes (None: none yet)."""
+        return jpeg_of(self.images.get(topic), quality)
+
+
+def jpeg_of(msg, quality=70):
+    """A sensor_msgs/Image (rgb8, bgr8, rgba8, bgra8, mono8) as JPEG bytes; None for None or
+    another encoding."""
+    if msg is None:
+        return None
+    import cv2
+    import numpy as np
+    enc = msg.encoding
+    ch = {'rgb8': 3, 'bgr8': 3, 'rgba8': 4, 'bgra8': 4, 'mono8': 1}.get(enc)
+    if ch is None:
+        return None
+    a = np.frombuffer(msg.data, np.uint8)[:msg.height * msg.step].reshape(
+        msg.height, msg.step)[:, :msg.width * ch].reshape(msg.height, msg.width, ch)
+    if enc.startswith('rgb'):
+        a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGR if ch == 4 else cv2.COLOR_RGB2BGR)
+    elif enc == 'bgra8':
+        a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
+    ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
+    return buf.tobytes() if ok else None

@@ -9,6 +9,7 @@
     frames: 0, firstFrameAt: null, poses: {}, models: {}, selected: 'mobile_device',
     dragging: false, replies: {}, cameraFrames: 0, ready: false, displays: {},
     device: {}, hist: {}, deviceMessages: 0, links: {}, cameras: {}, view: 'free',
+    displayImages: {}, displayFrames: 0,
   };
   let ws = null, nextId = 1;
   const pending = {};
@@ -214,12 +215,10 @@
     const w = 150, h = Math.round(w * d.height / d.width);
     if (c.width !== w || c.height !== h) { c.width = w; c.height = h; }
     const g = c.getContext('2d');
-    const img = $('camera');
+    const img = studio.displayImages[name];  // the latest of its own image topic (stream)
     g.fillStyle = '#0000ff';                // textvid's display before its first image
     g.fillRect(0, 0, w, h);
-    if (d.image_topic && d.image_topic === studio.cameraTopic && img.naturalWidth) {
-      g.drawImage(img, 0, 0, w, h);         // it shows the camera topic's image, scaled
-    }
+    if (img && img.naturalWidth) g.drawImage(img, 0, 0, w, h);     // scaled to the display
     const t = studio.device['/' + name + '/touch'];
     if (t && studio.simTime - t.stamp < 1.0) {     // the last touch event, for a second
       const f = Object.fromEntries(t.fields);
@@ -510,7 +509,6 @@
         if (cameraUrl) URL.revokeObjectURL(cameraUrl);
         cameraUrl = url;
         studio.cameraFrames++;
-        $('camera').onload = drawDisplay;
         emit('camera', url);
         return;
       }
@@ -557,6 +555,16 @@
           studio.ready = true;
         });
         send({op: 'device', on: true});
+      } else if (m.type === 'display') {
+        // a phone display's image topic (its own stream): shown once decoded, so the
+        // canvas never draws an image that is still loading
+        const img = new Image();
+        img.onload = () => {
+          studio.displayImages[m.model] = img;
+          studio.displayFrames++;
+          drawDisplay();
+        };
+        img.src = 'data:image/jpeg;base64,' + m.jpeg;
       } else if (m.type === 'device') {
         showDevice(m);
       } else if (m.type === 'recording') {

@@ -1,7 +1,9 @@
 """The studio's study mode (sim_studio.study), without a roscore: a task list, a session's
 action log through the server's command path (Studio.on_command) with sim and wall times,
-time on task, success, error and undo counts per task as CSV, undo, and the replay of a
-session's world commands (timed against the world's clock, and step by step)."""
+time on task, success, error and undo counts per task as CSV, undo of every world change
+with a clean inverse (a pose set, a preset, a walk, environment values, a fault, a radio, the
+charger), and the replay of a session's world commands (timed against the world's clock,
+and step by step)."""
 import asyncio
 import csv
 import io
@@ -15,6 +17,7 @@ from sim_studio.study import parse_tasks
 
 sys.path.insert(0, __file__.rsplit('/', 1)[0])
 from test_studio_protocol import run, studio as make_studio  # noqa: E402
+from test_studio_moves_ops import phone_desc  # noqa: E402,F401 - a fixture
 
 
 def cmd(**kw):
@@ -65,7 +68,8 @@ def test_a_session_logs_every_command_and_counts_per_task(s, tmp_path):
     w.clock = 12.0
     send(s, op='set_pose', model='mobile_device', position=[4, 5, 6], rpy=[0, 0, 1])
     rep = send(s, op='study_undo')                                   # back to [1, 2, 3]
-    assert rep['ok'] and rep['applied']['position'] == [1.0, 2.0, 3.0]
+    assert rep['ok'] and rep['undone'] == 'set_pose'
+    assert rep['applied'][0]['fields']['position'] == [1.0, 2.0, 3.0]
     assert w.calls[-1][:3] == ('set_pose', 'mobile_device', [1.0, 2.0, 3.0])
     rep = send(s, op='study_undo')          # back to the pose when the session started
     assert rep['ok'] and w.calls[-1][:3] == ('set_pose', 'mobile_device', [1.0, 2.0, 3.0])
@@ -156,3 +160,109 @@ def test_csv_route(s):
     rows = list(csv.DictReader(io.StringIO(text)))
     assert [(r['task'], r['result']) for r in rows] == [('1', 'unfinished'),
                                                         ('2', 'not started')]
+
+
+def test_undo_takes_back_each_world_change_that_has_an_inverse(phone_desc):
+    """set_environment, fault, radio, charger, preset and walk are undone to the state
+    before them (the environment's from /gazebo/environment when the studio set none);
+    a touch has no inverse and is passed over; every undo counts for the task and is
+    replayed as the commands it sent."""
+    import types
+    from test_studio_moves_ops import OFFICE, Services
+    from test_studio_protocol import FakeWorld
+    from sim_studio import moves
+
+    class World(FakeWorld):
+        def __init__(self):
+            FakeWorld.__init__(self)
+            self.pose, self.sets, self.proxy = [1.0, 2.0, 3.0], [], Services(self)
+
+        def poses(self):
+            return {'mobile_device': self.pose + [0, 0, 0, 1], 'desk': [0, 0, 0, 0, 0, 0, 1]}
+
+        def get_pose(self, model):
+            return list(self.pose), [0, 0, 0, 1]
+
+        def set_pose(self, model, position, rpy):
+            FakeWorld.set_pose(self, model, position, rpy)
+            self.pose = list(position)
+
+    extensions.load()
+    w = World()
+    st = make_studio()
+    st.world = w
+    st.scene_models = [phone_desc]
+    st.world_file = OFFICE
+    study.attach(st)
+    published = []
+    moves._hands(st, 'mobile_device').publish = lambda topic, m: published.append(
+        (topic, m.data))
+    # the world's environment as /gazebo/environment had it before the session
+    st.study.on_environment(types.SimpleNamespace(values=[
+        types.SimpleNamespace(name='temperature', value=15.0),
+        types.SimpleNamespace(name='daylight', value=10000.0)]), wall=1.0)
+    send(st, op='study_tasks', tasks_text='- change everything')
+    send(st, op='study_start', person='P4')
+    send(st, op='study_task', action='start')
+    changes = [dict(op='set_environment', values={'temperature': 30, 'humidity': 80}),
+               dict(op='set_environment', values={'temperature': 25}),
+               dict(op='fault', sensor='/mobile_device/magnetic', fault='drop'),
+               dict(op='fault', sensor='/mobile_device/magnetic', fault='noise', value=3),
+               dict(op='radio', radio='wifi', enabled=False),
+               dict(op='charger', plugged=True),
+               dict(op='preset', model='mobile_device', name='flat_on_desk'),
+               dict(op='touch', x=0.5, y=0.5)]
+    for c in changes:
+        assert send(st, **c)['ok'], c
+    on_desk = list(w.pose)
+    assert 0.75 < on_desk[2] < 0.77
+    w.calls.clear()
+
+    def undo():
+        rep = send(st, op='study_undo')
+        assert rep['ok'], rep
+        return rep['undone'], [(a['op'], a['fields']) for a in rep['applied']]
+    # the touch is passed over: the preset is the last change with an inverse
+    assert undo() == ('preset', [('set_pose', {'model': 'mobile_device',
+                                               'position': [1.0, 2.0, 3.0],
+                                               'rpy': [0.0, 0.0, 0.0]})])
+    assert w.pose == [1.0, 2.0, 3.0]
+    assert undo() == ('charger', [('charger', {'model': 'mobile_device', 'plugged': False})])
+    assert undo() == ('radio', [('radio', {'model': 'mobile_device', 'radio': 'wifi',
+                                           'enabled': True})])
+    assert published[-2:] == [('/mobile_device/charger', False),
+                              ('/mobile_device/wifi/enable', True)]
+    assert undo()[1][0][1]['fault'] == 'drop'                       # the fault before noise
+    assert undo()[1][0][1] == {'model': 'mobile_device', 'sensor': '/mobile_device/magnetic',
+                               'fault': 'none', 'value': 0.0}      # none before the first
+    assert undo() == ('set_environment', [('set_environment', {'values': {'temperature': 30.0}})])
+    # the world's own temperature; humidity was never known: left as it is
+    assert undo() == ('set_environment', [('set_environment', {'values': {'temperature': 15.0}})])
+    assert [c[0] for c in w.calls] == ['set_pose', 'fault', 'fault', 'set_environment',
+                                       'set_environment']
+    assert 'nothing to undo' in send(st, op='study_undo')['error']
+    # a walk under way: stopped, and the phone back where the walk found it
+    rep = send(st, op='walk', model='mobile_device', waypoints=[[2, 2, 3], [2, 4, 3]],
+               speed=1.0)
+    assert rep['ok'] and rep['before']['position'] == [1.0, 2.0, 3.0]
+    assert rep['end_pose']['position'] == pytest.approx([2, 4, 3], abs=1e-6)
+    w.clock += 1.0
+    st._moves.mover.run_due()
+    assert w.pose != [1.0, 2.0, 3.0]
+    assert undo()[0] == 'walk'
+    assert st._moves.mover.pending() == 0 and w.pose == [1.0, 2.0, 3.0]
+    # a pose set after a finished walk goes back to the walk's end
+    send(st, op='walk', model='mobile_device', waypoints=[[2, 2, 3], [2, 4, 3]], speed=1.0)
+    w.clock += 100.0
+    st._moves.mover.run_due()
+    send(st, op='set_pose', model='mobile_device', position=[9, 9, 9])
+    assert undo()[1][0][1]['position'] == pytest.approx([2, 4, 3], abs=1e-6)
+    send(st, op='study_task', action='finish')
+    send(st, op='study_end')
+    row = next(csv.DictReader(io.StringIO(st.study.csv())))
+    assert (row['undos'], row['errors']) == ('9', '1')      # the undo with nothing left
+    # a replay sends what each undo sent
+    ops = [e['op'] for e in st.study.replay_entries(0)]
+    assert ops[:9] == [c['op'] for c in changes] + ['set_pose']
+    assert ops[9:] == ['charger', 'radio', 'fault', 'fault', 'set_environment',
+                       'set_environment', 'walk', 'set_pose', 'walk', 'set_pose', 'set_pose']

@@ -293,12 +293,45 @@ def _preset(studio, f):
                                     f['surface'])
     cmd = Command('set_pose', {'model': f['model'], 'position': position, 'rpy': rpy})
     t = studio.world.clock
-    _state(studio).mover.cancel(_state(studio).walks.pop(f['model'], None))
+    stop_walk(studio, f['model'])
     studio.world.set_pose(f['model'], position, rpy)
     entry = studio.recorder.add(cmd, t)
     if entry is not None:
         studio._tell_recording_threadsafe()
-    return {'position': position, 'rpy': rpy, 'sim_time': t, 'recorded': entry}
+    return {'position': position, 'rpy': rpy, 'sim_time': t, 'recorded': entry,
+            'before': _pose_fields(pos, quat)}
+
+
+def stop_walk(studio, model):
+    """End the walk of ``model`` that is under way (if any): its poses still due are
+    dropped."""
+    st = _state(studio)
+    st.mover.cancel(st.walks.pop(model, None))
+
+
+class _EndOf(object):
+    """What a runner action's ``Hands`` is asked, answered at once: the last pose the
+    action sets (a walk's end), without a world."""
+
+    def __init__(self, pos, quat):
+        self.start = (list(pos), list(quat))
+        self.due = []
+        self.end = None
+
+    def model_state(self, ev, model):
+        return self.start
+
+    def later(self, t, fn, what):
+        self.due.append((t, len(self.due), fn))
+
+    def set_pose(self, ev, model, pos, quat, *rest, **kw):
+        self.end = ([float(v) for v in pos], [float(v) for v in quat])
+
+    def last(self, action, t0):
+        action.apply(self, t0)
+        for t, _i, fn in sorted(self.due):
+            fn(t)
+        return self.end
 
 
 def _walk(studio, f):
@@ -316,6 +349,7 @@ def _walk(studio, f):
           'waypoints': f['waypoints'], 'speed': f['speed']}
     t0 = studio.world.clock
     Walk(ev).apply(_hands(studio, model), t0)
+    last = _EndOf(pos, _q).last(Walk(ev), t0)        # where the walk ends (study's undo)
     st.walks[model] = ev['id']
     end = st.mover.ends.get(ev['id'], t0)
     entry = _record(studio, {'action': 'walk', 'model': model, 'waypoints': f['waypoints'],
@@ -323,7 +357,14 @@ def _walk(studio, f):
     if entry is not None:
         _record(studio, {'action': 'log', 'text': 'the walk %s ends' % entry['id']}, end)
     return {'sim_time': t0, 'end': end, 'length': length, 'steps': st.mover.pending(ev['id']),
-            'recorded': entry}
+            'recorded': entry, 'before': _pose_fields(pos, _q),
+            'end_pose': _pose_fields(*last) if last else None}
+
+
+def _pose_fields(pos, quat):
+    from testing_instance.scenario.motion import rpy_from_quat
+    return {'position': [float(v) for v in pos],
+            'rpy': [float(v) for v in rpy_from_quat(quat)]}
 
 
 def _switch(studio, op, f):

@@ -10,9 +10,22 @@ client, task}. While a task runs it counts for that task: an *action* (any op bu
 study's own bookkeeping), an *error* (a command answered with an error) and an *undo*
 (``study_undo`` or any op named ``undo`` / ``*_undo`` that succeeded).
 
-``study_undo`` puts the model of the session's last ``set_pose`` back where it was before
-(the pose of its previous ``set_pose`` in the session, else its pose when the session
-started). A replay re-sends the session's successful world commands (ops that change the
+``study_undo`` takes back the session's last world-changing command that has a clean
+inverse (``UNDOABLE``), by sending that inverse through the studio's handler:
+
+- ``set_pose``: the model back where it was before (its previous ``set_pose``, preset or
+  walk in the session, else its pose when the session started);
+- ``preset``, ``walk``: the model back to the pose the op found it at (the op's reply
+  ``before``, asked of the world); a walk still under way is stopped first;
+- ``set_environment``: each value set back to what it was before (the last value the
+  studio set, else the world's own from ``/gazebo/environment`` received before the
+  command); values never known are left;
+- ``fault``: the sensor's previous fault (the last the studio set on it, else none);
+- ``radio``, ``charger``: the previous switch state (the last the studio set, else the
+  phone's start state: radios on, charger unplugged).
+
+``touch``, ``press_button``, ``reset`` and the time controls have no inverse: undo passes
+over them to the last command that has one. A replay re-sends the session's successful world commands (ops that change the
 world, but not play, pause and step: sim time is the replay's axis) through the studio's
 one handler (``Studio.handle``, so they are checked and recorded like any command, and not
 logged again) either at their sim times relative to the first one (``timed``: it waits for
@@ -33,6 +46,10 @@ BOOKKEEPING = ('study_tasks', 'study_start', 'study_task', 'study_end', 'study_s
 #: world ops a replay does not re-send (the world's time controls)
 NOT_REPLAYED = ('play', 'pause', 'step')
 RESULTS = ('success', 'gave_up', 'unfinished')
+#: world ops study_undo can take back
+UNDOABLE = ('set_pose', 'preset', 'walk', 'set_environment', 'fault', 'radio', 'charger')
+#: the phone's switches when nothing set them (radios on, charger unplugged)
+RADIO_START, CHARGER_START = True, False
 CSV_COLUMNS = ('person', 'session', 'task', 'task_name', 'result', 'success',
                'time_on_task_s', 'sim_time_on_task_s', 'actions', 'errors', 'undos',
                'started_wall', 'started_sim')
@@ -54,7 +71,8 @@ OPS = {
     'study_end': dict(doc='end the session (a running task is unfinished)'),
     'study_undo': dict(
         changes_world=True,
-        doc="undo the session's last set_pose: its model back where it was before"),
+        doc="undo the session's last world change that has an inverse (set_pose, preset, "
+            "walk, set_environment, fault, radio, charger): the state before it back"),
     'study_state': dict(doc='the task list, the running session and every session\'s '
                             'summary'),
     'study_replay': dict(
@@ -114,7 +132,8 @@ class Session(object):
         self.log = []
         self.current = None          # index of the running task
         self.last = {m: (list(p[:3]), list(p[3:])) for m, p in (poses or {}).items()}
-        self.undo = []               # [(model, (position, quaternion) before)]
+        # [{op, commands: [(op, fields)] (the inverse), stop_walk: model or None}]
+        self.undo = []
 
     def summary(self):
         return {'session': self.n, 'person': self.person, 'running': self.end_wall is None,
@@ -152,6 +171,86 @@ class Study(object):
         self.session = None          # the running Session
         self.replay = None           # {'session', 'mode', 'i', 'task', 'entries'}
         self._ended = None           # the session study_end just ended (its last entry)
+        # what the studio last set (any session or none): the inverses' previous states
+        self.known_env = {}          # name -> value
+        self.known_fault = {}        # (model, sensor) -> (fault, value)
+        self.known_radio = {}        # (model, radio) -> enabled
+        self.known_charger = {}      # model -> plugged
+        self.env_seen = []           # [(wall, {name: value})] of /gazebo/environment
+        self.env_sub = None
+
+    def watch_environment(self, rospy):
+        """Keep the world's environment values (``/gazebo/environment``, latched): the
+        values a set_environment's undo goes back to when the studio set none before."""
+        from mobile_device_sim.msg import Environment
+        self.env_sub = rospy.Subscriber('/gazebo/environment', Environment, self.on_environment,
+                                        queue_size=5)
+
+    def on_environment(self, msg, wall=None):
+        values = {v.name: float(v.value) for v in msg.values}
+        self.env_seen = (self.env_seen + [(time.time() if wall is None else wall, values)])[-20:]
+
+    def _env_before(self, name, wall):
+        if name in self.known_env:
+            return self.known_env[name]
+        seen = [v for w, v in self.env_seen if w < wall]
+        return seen[-1].get(name) if seen else None
+
+    def _track(self, op, f, rep, s=None):
+        """Keep the state a carried-out command left (``s``: the session's poses too)."""
+        if op == 'set_environment':
+            self.known_env.update(f['values'])
+        elif op == 'fault':
+            self.known_fault[(f['model'], f['sensor'])] = (f['fault'], f['value'])
+        elif op == 'radio':
+            self.known_radio[(f['model'], f['radio'])] = f['enabled']
+        elif op == 'charger':
+            self.known_charger[f['model']] = f['plugged']
+        if s is None:
+            return
+        if op == 'set_pose':
+            s.last[f['model']] = (list(f['position']), _rpy_quat(f['rpy']))
+        elif op == 'preset':
+            s.last[f['model']] = (list(rep['position']), _rpy_quat(rep['rpy']))
+        elif op == 'walk':
+            end = rep.get('end_pose')
+            s.last[f['model']] = (list(end['position']), _rpy_quat(end['rpy'])) if end \
+                else None
+
+    def _inverse(self, op, f, rep, s, wall):
+        """The undo entry of a carried-out command (None: it has no clean inverse)."""
+        cmds, stop = [], None
+        if op in ('set_pose', 'preset', 'walk'):
+            m = f['model']
+            if op == 'set_pose':
+                before = s.last.get(m)
+                before = before and {'position': before[0], 'rpy': _quat_rpy(before[1])}
+            else:
+                before = rep.get('before')
+            if not before:
+                return None
+            cmds.append(('set_pose', {'model': m, 'position': list(before['position']),
+                                      'rpy': list(before['rpy'])}))
+            stop = m if op == 'walk' else None
+        elif op == 'set_environment':
+            old = {k: self._env_before(k, wall) for k in sorted(f['values'])}
+            old = {k: v for k, v in old.items() if v is not None}
+            if not old:
+                return None
+            cmds.append(('set_environment', {'values': old}))
+        elif op == 'fault':
+            fault, value = self.known_fault.get((f['model'], f['sensor']), ('none', 0.0))
+            cmds.append(('fault', {'model': f['model'], 'sensor': f['sensor'], 'fault': fault,
+                                   'value': value}))
+        elif op == 'radio':
+            cmds.append(('radio', {'model': f['model'], 'radio': f['radio'], 'enabled':
+                                   self.known_radio.get((f['model'], f['radio']), RADIO_START)}))
+        elif op == 'charger':
+            cmds.append(('charger', {'model': f['model'], 'plugged':
+                                     self.known_charger.get(f['model'], CHARGER_START)}))
+        else:
+            return None
+        return {'op': op, 'commands': cmds, 'stop_walk': stop}
 
     # -- the action log (Studio.on_command) ------------------------------------------------
     def on_command(self, cmd, raw, rep, client, sim, wall):
@@ -159,6 +258,8 @@ class Study(object):
                              else None)
         self._ended = None
         if s is None:
+            if cmd is not None and rep.get('ok'):
+                self._track(cmd.op, cmd.fields, rep)
             return
         if cmd is not None:
             op, fields = cmd.op, dict(cmd.fields)
@@ -172,6 +273,7 @@ class Study(object):
                  'task': s.current}
         if op == 'study_undo' and rep.get('ok'):
             entry['applied'] = rep.get('applied')
+            entry['stop_walk'] = rep.get('stop_walk')
         s.log.append(entry)
         if s.current is not None and op not in BOOKKEEPING:
             t = s.tasks[s.current]
@@ -180,10 +282,12 @@ class Study(object):
                 t['errors'] += 1
             elif op is not None and (op == 'undo' or op.endswith('_undo')):
                 t['undos'] += 1
-        if entry['ok'] and op == 'set_pose':
-            m = fields['model']
-            s.undo.append((m, s.last.get(m)))
-            s.last[m] = (list(fields['position']), _rpy_quat(fields['rpy']))
+        if entry['ok'] and op in UNDOABLE and cmd is not None:
+            u = self._inverse(op, fields, rep, s, wall)
+            if u is not None:
+                s.undo.append(u)
+        if entry['ok'] and cmd is not None:
+            self._track(op, fields, rep, s)
         self._tell()
 
     # -- ops ---------------------------------------------------------------------------------
@@ -249,16 +353,30 @@ class Study(object):
             raise ValueError('%s: no session is running (study_start)' % op)
         return self.session
 
-    def undo_fields(self):
-        """The set_pose that undoes the session's last one (and takes it off the stack)."""
+    def undo_entry(self):
+        """The undo entry of the session's last world change with an inverse (taken off
+        the stack): {op, commands [(op, fields)], stop_walk}."""
         s = self._running('study_undo')
-        while s.undo:
-            model, before = s.undo.pop()
-            s.last.pop(model, None)
-            if before is not None:
-                s.last[model] = before
-                return {'model': model, 'position': before[0], 'rpy': _quat_rpy(before[1])}
-        raise ValueError('study_undo: nothing to undo (no set_pose in this session yet)')
+        if not s.undo:
+            raise ValueError('study_undo: nothing to undo (no %s in this session yet, or '
+                             'all undone)' % ', '.join(UNDOABLE))
+        return s.undo.pop()
+
+    async def apply_undo(self, u, client):
+        """Carry out an undo entry's commands through the studio's handler; the applied
+        [{op, fields}]."""
+        studio, applied = self.studio, []
+        if u.get('stop_walk'):
+            from . import moves
+            moves.stop_walk(studio, u['stop_walk'])
+        for op, fields in u['commands']:
+            c = protocol.check(dict(fields, v=protocol.VERSION, op=op), models=studio._models())
+            rep = await studio.handle(c, client, True)
+            if not rep.get('ok'):
+                raise ValueError('study_undo: %s of the %s: %s' % (op, u['op'], rep.get('error')))
+            self._track(op, c.fields, rep, self.session)
+            applied.append({'op': op, 'fields': c.fields})
+        return applied
 
     def state(self):
         return {'tasks': self.tasks,
@@ -300,7 +418,9 @@ class Study(object):
             if not e['ok']:
                 continue
             if e['op'] == 'study_undo' and e.get('applied'):
-                out.append(dict(e, op='set_pose', fields=e['applied']))
+                for k, a in enumerate(e['applied']):
+                    out.append(dict(e, op=a['op'], fields=a['fields'],
+                                    stop_walk=e.get('stop_walk') if k == 0 else None))
             elif e['op'] in protocol.OPS and protocol.OPS[e['op']][2] and \
                     e['op'] not in NOT_REPLAYED and e['op'] not in (
                         'study_undo', 'study_replay', 'study_next'):
@@ -309,11 +429,16 @@ class Study(object):
 
     async def send(self, e):
         """Carry out one logged command through the studio's handler (not logged again)."""
+        if e.get('stop_walk'):
+            from . import moves
+            moves.stop_walk(self.studio, e['stop_walk'])
         cmd = protocol.check(dict(e['fields'], v=protocol.VERSION, op=e['op']),
                              models=self.studio._models())
         rep = await self.studio.handle(cmd, None, True)
         if not rep.get('ok'):
             self.studio.log('studio: replay of %s: %s' % (e['op'], rep.get('error')))
+        else:
+            self._track(e['op'], cmd.fields, rep)
         return rep
 
     def _tell(self):
@@ -374,6 +499,12 @@ def attach(studio):
     if getattr(studio, 'study', None) is None:
         studio.study = Study(studio)
         studio.on_command.append(studio.study.on_command)
+        rospy = getattr(studio.world, 'rospy', None)
+        if rospy is not None:
+            try:
+                studio.study.watch_environment(rospy)
+            except Exception as e:  # noqa: BLE001 - undo of set_environment then knows less
+                studio.log('studio: study: cannot watch /gazebo/environment: %s' % e)
     return studio.study
 
 
@@ -395,13 +526,9 @@ async def handle(studio, cmd, client):
     elif op == 'study_state':
         return st.state()
     elif op == 'study_undo':
-        fields = st.undo_fields()
-        cmd2 = protocol.check(dict(fields, v=protocol.VERSION, op='set_pose'),
-                              models=studio._models())
-        rep = await studio.handle(cmd2, client, True)
-        if not rep.get('ok'):
-            raise ValueError('study_undo: %s' % rep.get('error'))
-        out = {'applied': cmd2.fields}
+        u = st.undo_entry()
+        out = {'undone': u['op'], 'applied': await st.apply_undo(u, client),
+               'stop_walk': u['stop_walk']}
     elif op == 'study_replay':
         out = st.stop_replay() if f['mode'] == 'stop' else \
             await st.start_replay(f['session'], f['mode'])

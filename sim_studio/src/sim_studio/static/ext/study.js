@@ -93,7 +93,9 @@
   q('study-task-start').onclick = () => send({op: 'study_task', action: 'start'});
   q('study-task-finish').onclick = () => send({op: 'study_task', action: 'finish'});
   q('study-task-give-up').onclick = () => send({op: 'study_task', action: 'give_up'});
-  q('study-undo').onclick = () => send({op: 'study_undo'});
+  q('study-undo').onclick = () => send({op: 'study_undo'}).then((rep) => {
+    if (rep.ok) status.textContent = 'undone: ' + rep.undone;
+  });
   q('study-next').onclick = () => send({op: 'study_next'});
   q('study-stop').onclick = () => send({op: 'study_replay', session: 0, mode: 'stop'});
 })();

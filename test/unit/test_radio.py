@@ -4,6 +4,7 @@ import logging
 import math
 import os
 import subprocess
+import types
 
 import numpy as np
 import pytest
@@ -352,6 +353,46 @@ def test_nfc_face_to_face_vcard_both_ways(world):
     world.step(100)
     assert a.notifications[-1][1:] == ('mobile_device_b', 'active', 'disconnected')
     assert b.notifications[-1][1:] == ('mobile_device', 'active', 'disconnected')
+
+
+def test_nfc_switch_off_disconnects_and_stops_reading(world, caplog):
+    """nfc/enable false: both sides told disconnected at once, nothing connects, is read or
+    sent while off (one warning line); on again: connected at the next evaluation; the
+    power bus sees flag nfc."""
+    a, b = two_phones(world, 0.03)
+    assert a.topic == '/mobile_device/nfc/notification' and a.enabled
+    assert world.power.flag('mobile_device', 'nfc') is True
+    world.step(101)
+    assert a.notifications[-1][3] == 'connected'
+    a._on_enable(types.SimpleNamespace(data=False))
+    assert not a.enabled and world.power.flag('mobile_device', 'nfc') is False
+    assert a.notifications[-1][1:] == ('mobile_device_b', 'active', 'disconnected')
+    assert b.notifications[-1][1:] == ('mobile_device', 'active', 'disconnected')
+    na, nb = len(a.notifications), len(b.notifications)
+    world.step(300)
+    assert len(a.notifications) == na and len(b.notifications) == nb     # stays apart
+    n = b.incoming_pub.count
+    with caplog.at_level(logging.WARNING):
+        assert a.on_outgoing(Out('mobile_device_b', VCARD)) is None
+    assert b.incoming_pub.count == n
+    assert sum('switched off' in r.getMessage() for r in caplog.records) == 1
+    a.set_enabled(True)
+    world.step(101)
+    assert a.notifications[-1][3] == 'connected' and b.notifications[-1][3] == 'connected'
+    a.on_outgoing(Out('mobile_device_b', VCARD))
+    assert b.incoming_pub.last.data == VCARD
+
+
+def test_nfc_off_at_start_reads_no_tag(world):
+    world.add_model(tag((0, 0, 1.025)))
+    world.add_model(phone(), pose=Pose((0, 0, 1)))
+    a = plugin(world, NfcDevice)
+    a.set_enabled(False)
+    world.step(11)
+    assert not a.notifications and not a.received
+    a.set_enabled(True)
+    world.step(100)
+    assert a.received and a.received[-1][1:] == ('poster', 'U:http://vmi.lmt.ei.tum.de')
 
 
 def test_nfc_outgoing_without_partner_warns(world, caplog):

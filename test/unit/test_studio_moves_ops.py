@@ -83,7 +83,7 @@ def test_bad_moves_are_refused_by_the_protocol():
               'speed': 0}, '> 0'),
             ({'op': 'walk', 'model': 'mobile_device', 'waypoints': [[0, 0, 1], [1, 1, 1]],
               'speed': -2}, '> 0'),
-            ({'op': 'radio', 'radio': 'nfc', 'enabled': True}, 'one of'),
+            ({'op': 'radio', 'radio': 'gps', 'enabled': True}, 'one of'),
             ({'op': 'charger', 'plugged': 1}, 'true or false'),
             ({'op': 'wifi_map', 'grid': 0}, '> 0')]:
         with pytest.raises(ProtocolError, match=words):
@@ -259,11 +259,14 @@ def test_radio_and_charger_are_the_runners_actions_and_are_recorded():
     moves._state(s).hands = hands
     s.recorder.start(w.clock)
     for body in ({'op': 'radio', 'radio': 'wifi', 'enabled': False},
+                 {'op': 'radio', 'radio': 'nfc', 'enabled': False},
                  {'op': 'charger', 'plugged': True, 'model': 'mobile_device'}):
         rep = run(s.handle_text(json.dumps(dict(body, v=1))))
         assert rep['ok'], rep
-    assert sent == [('/mobile_device/wifi/enable', False), ('/mobile_device/charger', True)]
+    assert sent == [('/mobile_device/wifi/enable', False), ('/mobile_device/nfc/enable', False),
+                    ('/mobile_device/charger', True)]
     text = s.recorder.yaml()
     assert 'action: radio, ns: mobile_device, radio: wifi, enabled: false' in text, text
+    assert 'action: radio, ns: mobile_device, radio: nfc, enabled: false' in text, text
     assert 'action: charger, ns: mobile_device, plugged: true' in text
     assert check_yaml(text) == []

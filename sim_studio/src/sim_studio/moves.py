@@ -42,7 +42,7 @@ HELD_TILT = math.pi / 6
 GAP = 0.001                 # m between the phone and the desk it lies on
 MAX_WALK_S = 600.0          # s of sim time a walk may last at most
 MAX_WAYPOINTS = 100
-RADIOS = ('wifi', 'bluetooth', 'cellular')
+RADIOS = ('wifi', 'bluetooth', 'cellular', 'nfc')
 
 
 def _check_walk_fields(f):
@@ -62,7 +62,7 @@ OPS = {
                      "least 2) at speed m/s in sim time: the runner's walk action"),
     'radio': dict(required={'radio': RADIOS, 'enabled': 'bool'},
                   optional={'model': 'mobile_device'}, changes_world=True, takes_model=True,
-                  doc="switch a phone's radio (wifi, bluetooth, cellular) on or off: "
+                  doc="switch a phone's radio (wifi, bluetooth, cellular, nfc) on or off: "
                       "<model>/<radio>/enable"),
     'charger': dict(required={'plugged': 'bool'}, optional={'model': 'mobile_device'},
                     changes_world=True, takes_model=True,

@@ -21,7 +21,7 @@ from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
 
 from . import radio_budget as rb
-from .wifi import TransmitterPlugin
+from .wifi import RadioSwitch, TransmitterPlugin
 
 __all__ = ['BluetoothDevice', 'BluetoothAdapter', 'bt_state']
 
@@ -60,30 +60,19 @@ class BluetoothDevice(TransmitterPlugin):
 
 
 @register('libgazebo_ros_bluetooth.so', 'libbluetooth.so')
-class BluetoothAdapter(Sensor):
+class BluetoothAdapter(RadioSwitch, Sensor):
     DEFAULT_TOPIC = None
     DEFAULT_RATE = 1.0
     ALWAYS_MEASURE = True
-    PARAMS = [
-        Param('enabled', bool, True, doc='adapter on at start'),
-        Param('power', float, 0.05, unit='W', check='>=0', doc='draw while on'),
-    ]
+    ENABLE_TOPIC = 'bluetooth/enable'
+    FLAG = 'bluetooth'
+    PARAMS = RadioSwitch.switch_params(0.05)
 
     def setup(self):
-        from std_msgs.msg import Bool, Float64, String
+        from std_msgs.msg import Float64, String
         self.Float64, self.String = Float64, String
-        self.enabled = bool(self.p.enabled)
         self.devices = {}         # name -> dict(state, data_pub, state_pub, value)
-        self.subscribe('bluetooth/enable', Bool, lambda m: self.set_enabled(m.data))
-        self._set_power()
-
-    def set_enabled(self, on):
-        self.enabled = bool(on)
-        self._set_power()
-
-    def _set_power(self):
-        self.power_flag('bluetooth', self.enabled)
-        self.power('bluetooth', self.p.power if self.enabled else 0.0)
+        self.setup_switch()
 
     def _entry(self, tx):
         """The outputs of one device (declared when the adapter first sees it): its reading

@@ -17,6 +17,12 @@ as in the thesis's flow:
   active device that connects to a passive tag (or passive phone with ``data``) reads it
   here at once.
 
+``nfc/enable`` (std_msgs/Bool) switches the phone's NFC like its other radios (parameter
+``enabled``, default true; flag ``nfc`` and a draw of ``power`` W, default 0, on the power
+bus): a switched-off device neither connects nor reads nor sends (``nfc/outgoing``: one
+warning line); switching it off ends its connections at once, and both sides get
+``disconnected``; switched on, it connects again at the next evaluation.
+
 ``libgazebo_ros_nfc_tag.so`` on any model: a passive tag (no topics) with ``data`` (e.g. an
 NDEF URL record ``U:http://...``), ``range``, ``direction``, ``name`` (default the model
 name). A tag without data: one line naming it, and the tag stays out of the world. Writing
@@ -33,6 +39,8 @@ import numpy as np
 from sim_world.plugins import register
 from sim_world.plugins.params import Param
 from sim_world.plugins.sensor import Sensor
+
+from .wifi import RadioSwitch
 
 __all__ = ['NfcDevice', 'NfcTag', 'NfcProxy', 'proxy_of', 'sees', 'AXES']
 
@@ -80,6 +88,14 @@ class NfcProxy(object):
             other = next(iter(pr - {dev}))
             other.notify(dev, 'disconnected')
 
+    def drop(self, dev):
+        """``dev`` was switched off: its connections end now, both sides told."""
+        for pr in sorted([p for p in self.pairs if dev in p], key=self._key):
+            self.pairs.discard(pr)
+            a, b = sorted(pr, key=lambda d: d.name)
+            a.notify(b, 'disconnected')
+            b.notify(a, 'disconnected')
+
     def partners(self, dev):
         return [next(iter(p - {dev})) for p in self.pairs if dev in p]
 
@@ -103,7 +119,7 @@ class NfcProxy(object):
             except KeyError:
                 continue
         now = set()
-        live = [d for d in devs if d in poses]
+        live = [d for d in devs if d in poses and d.enabled]
         for i, a in enumerate(live):
             for b in live[i + 1:]:
                 if self.connectable(a, b, poses[a], poses[b]):
@@ -128,6 +144,8 @@ class NfcProxy(object):
     def send(self, sender, receiver, data):
         """Deliver ``data`` from ``sender`` to its connected partner ``receiver`` (empty:
         the only partner). Returns the partner or raises LookupError saying why not."""
+        if not sender.enabled:
+            raise LookupError('NFC of %s is switched off (nfc/enable)' % sender.name)
         parts = self.partners(sender)
         if receiver:
             match = [p for p in parts if p.name == receiver]
@@ -151,6 +169,7 @@ class _NfcBase(Sensor):
     DEFAULT_RATE = 10.0
     ALWAYS_MEASURE = True
     proxy = None
+    enabled = True                # a tag is always on; the phone's NFC has a switch
     name = mode = '?'
     COMMON = [
         Param('range', float, 0.04, aliases=('maxRange', 'max_range'), unit='m',
@@ -190,15 +209,17 @@ class _NfcBase(Sensor):
 
 
 @register('libgazebo_ros_nfc.so', 'libnfc.so')
-class NfcDevice(_NfcBase):
+class NfcDevice(RadioSwitch, _NfcBase):
     DEFAULT_TOPIC = 'nfc/notification'
+    ENABLE_TOPIC = 'nfc/enable'
+    FLAG = 'nfc'
     PARAMS = _NfcBase.COMMON + [
         Param('mode', ('active', 'passive'), 'active'),
         Param('name', str, None, doc='default: the robot namespace, else the model name'),
         Param('data', str, '', doc='what a passive device gives to a reader'),
         Param('outgoingTopicName', str, 'nfc/outgoing'),
         Param('incomingTopicName', str, 'nfc/incoming'),
-    ]
+    ] + RadioSwitch.switch_params(0.0)
 
     def setup(self):
         from mobile_device_sim.msg import NfcIncoming, NfcNotification, NfcOutgoing
@@ -215,6 +236,12 @@ class NfcDevice(_NfcBase):
         self.notifications = []       # (sim time, name, type, status)
         self.received = []            # (sim time, sender, data)
         self.register_device()
+        self.setup_switch()
+
+    def on_switch(self, on):
+        if not on and self.proxy is not None:
+            with self.world.lock:
+                self.proxy.drop(self)
 
     def notify(self, partner, status):
         m = self.NfcNotification(name=partner.name, type=partner.mode, status=status)

@@ -29,7 +29,7 @@ from sim_world.plugins.sensor import Sensor
 
 from . import radio_budget as rb
 
-__all__ = ['AccessPoint', 'WifiReceiver', 'RadioReceiver', 'TransmitterPlugin']
+__all__ = ['AccessPoint', 'WifiReceiver', 'RadioReceiver', 'RadioSwitch', 'TransmitterPlugin']
 
 log = logging.getLogger('simsensors.wifi')
 
@@ -105,7 +105,44 @@ class AccessPoint(TransmitterPlugin):
                               self.position, model=self.model.name, channel=chan, owner=self)
 
 
-class RadioReceiver(Sensor):
+class RadioSwitch(object):
+    """The on/off switch the phone's radios share (WiFi, cellular, Bluetooth, NFC): the
+    parameter ``enabled`` (on at start), ``<ENABLE_TOPIC>`` (std_msgs/Bool) switches it at
+    run time, and the power bus sees flag ``FLAG`` and a draw of ``power`` W while on.
+    A mixin of a Sensor: call ``setup_switch()`` in ``setup``; ``on_switch(on)`` is called
+    after each change."""
+    ENABLE_TOPIC = None
+    FLAG = None
+    enabled = True
+
+    @staticmethod
+    def switch_params(power):
+        return [Param('enabled', bool, True, doc='radio on at start'),
+                Param('power', float, power, unit='W', check='>=0', doc='draw while on')]
+
+    def setup_switch(self):
+        from std_msgs.msg import Bool
+        self.enabled = bool(self.p.enabled)
+        self.subscribe(self.ENABLE_TOPIC, Bool, self._on_enable)
+        self._set_power()
+
+    def _on_enable(self, msg):
+        self.set_enabled(msg.data)
+
+    def set_enabled(self, on):
+        self.enabled = bool(on)
+        self._set_power()
+        self.on_switch(self.enabled)
+
+    def on_switch(self, on):
+        pass
+
+    def _set_power(self):
+        self.power_flag(self.FLAG, self.enabled)
+        self.power(self.FLAG, self.p.power if self.enabled else 0.0)
+
+
+class RadioReceiver(RadioSwitch, Sensor):
     """Shared part of the phone's WiFi and cellular receivers: the budget to every
     transmitter of ``KIND``, switched by ``<prefix>/enable``."""
     KIND = None
@@ -140,31 +177,11 @@ class RadioReceiver(Sensor):
         Param('fading', rb.FADING, 'lognormal', doc='miscellaneous loss L_M'),
         Param('fadingSigma', float, 2.0, aliases=('sigma',), unit='dB', check='>=0',
               doc='standard deviation of the log-normal shadowing'),
-        Param('enabled', bool, True, doc='radio on at start'),
-        Param('power', float, 0.0, unit='W', check='>=0', doc='draw while on'),
-    ]
+    ] + RadioSwitch.switch_params(0.0)
 
     def setup(self):
-        self.enabled = bool(self.p.enabled)
         self.heard = []           # [(transmitter, P_RX dBm, terms)] of the last scan
-        self.subscribe(self.ENABLE_TOPIC, self._bool_type(), self._on_enable)
-        self._set_power()
-
-    @staticmethod
-    def _bool_type():
-        from std_msgs.msg import Bool
-        return Bool
-
-    def _on_enable(self, msg):
-        self.set_enabled(msg.data)
-
-    def set_enabled(self, on):
-        self.enabled = bool(on)
-        self._set_power()
-
-    def _set_power(self):
-        self.power_flag(self.FLAG, self.enabled)
-        self.power(self.FLAG, self.p.power if self.enabled else 0.0)
+        self.setup_switch()
 
     def wall_args(self):
         """The obstacle-loss model's keyword arguments for ``radio_budget.budget_to``."""

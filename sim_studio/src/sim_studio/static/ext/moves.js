@@ -267,15 +267,13 @@
   const b1 = el('div', {class: 'row'});
   b1.append('battery ', battery, ' ', lbl(charger, 'charger'));
   const radios = el('div', {class: 'row'});
-  for (const r of ['wifi', 'bluetooth', 'cellular']) {
-    const box = el('input', {type: 'checkbox', testid: 'radio-' + r, checked: ''});
+  for (const r of ['wifi', 'bluetooth', 'cellular', 'nfc']) {
+    const box = el('input', {type: 'checkbox', testid: 'radio-' + r, checked: '',
+                             title: r + ' on or off (' + r + '/enable)'});
     box.onchange = () => studio.send({op: 'radio', model: phone(), radio: r,
                                       enabled: box.checked}).then(say);
     radios.append(lbl(box, r), ' ');
   }
-  const nfc = el('input', {type: 'checkbox', testid: 'radio-nfc', checked: '', disabled: '',
-                           title: "the phone's NFC plugin has no switch (no nfc/enable topic)"});
-  radios.append(lbl(nfc, 'nfc'));
   const buttons = el('div', {class: 'row'});
   for (const b of ['power', 'volume_up', 'volume_down']) {
     const btn = el('button', {testid: 'button-' + b}, b.replace('_', ' '));

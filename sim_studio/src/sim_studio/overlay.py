@@ -190,7 +190,10 @@ def _phone_model(studio):
 def _world_info(studio):
     w = offline_world(world_file(studio))
     with w.lock:
-        return world_info(w)
+        info = world_info(w)
+    from .spawned import icons     # spawned models' icons; each at its model's pose now
+    info['icons'] = icons(studio, info['icons'])
+    return info
 
 
 def _wifi_map(studio, f):

@@ -9,8 +9,8 @@ import numpy as np
 
 from sim_world.transforms import Pose
 
-__all__ = ['Assets', 'describe_model', 'describe_world_file', 'describe_urdf', 'link_poses',
-           'display_of']
+__all__ = ['Assets', 'describe_model', 'describe_world_file', 'describe_urdf', 'describe_sdf',
+           'description_model', 'link_poses', 'display_of']
 
 
 def _pose(p):
@@ -271,11 +271,38 @@ def describe_world_file(path, assets=None):
     return [describe_model(m, assets) for m in load_world_file(path).models]
 
 
-def describe_urdf(text, name, assets=None):
+def describe_urdf(text, name, assets=None, base_dir=None):
     from sim_world.urdf import parse_urdf
-    model = parse_urdf(text, name=name)
+    model = parse_urdf(text, name=name, base_dir=base_dir)
     if not model.robot_namespace:
         # spawned as the launch files spawn it: in the namespace of its own name (the
         # studio calls /<model>/inject_touch)
         model.robot_namespace = name
     return describe_model(model, assets)
+
+
+def describe_sdf(text, name, assets=None, base_dir=None):
+    """An SDF <model> (what /gazebo/spawn_sdf_model took, or a world file's <model>) as
+    model ``name``, read with the world's own loader (sim_world.sdf.parse_sdf_model)."""
+    return describe_model(description_model('sdf', text, name, '', base_dir), assets)
+
+
+def description_model(fmt, xml, name, robot_namespace='', base_dir=None):
+    """The sim_world Model of a description as /gazebo/get_model_description answers it
+    (``fmt`` 'urdf' or 'sdf'), in the spawn's namespace as the world fills it
+    (sim_world.spawn.fill_robot_namespace); ModelError/ValueError when it cannot be read."""
+    from sim_world.spawn import fill_robot_namespace
+    ns = (robot_namespace or '').strip('/')
+    if fmt == 'urdf':
+        from sim_world.urdf import parse_urdf
+        model = parse_urdf(xml, name=name, base_dir=base_dir or None, robot_namespace=ns)
+    elif fmt == 'sdf':
+        from sim_world.sdf import parse_sdf_model
+        model = parse_sdf_model(xml, base_dir or None)
+        model.name = name
+        model.robot_namespace = ns
+    else:
+        raise ValueError('model %s: unknown description format %r (urdf or sdf)'
+                         % (name, fmt))
+    fill_robot_namespace(model, robot_namespace)
+    return model

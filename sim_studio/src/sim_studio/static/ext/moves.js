@@ -207,6 +207,7 @@
     }
     if (info.bounds && !M.bounds) setBounds(info.bounds);
   }
+  M.addIcons = addIcons;        // ext/spawned.js: the icons of models spawned since
   // where an icon is on the page (the browser test looks at the viewport's pixels there)
   M.iconPoint = (kind, id) => {
     const sp = M.icons[kind + ':' + id];

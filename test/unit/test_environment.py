@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from sim_world.environment import (Environment, EnvironmentError, IndoorVolume,
-                                parse_environment_text)
+                                   clear_sky_illuminance, parse_environment_text,
+                                   sun_elevation)
 from sim_world.model import ModelError
 from sim_world.sdf import load_world_file, parse_world
 
@@ -91,6 +92,74 @@ def test_set_checks_names_and_ranges():
     env.on_change.append(lambda n, v: seen.append((n, v)))
     env.set('daylight', 500)
     assert seen == [('daylight', 500)]
+
+
+def test_sun_elevation_by_hand():
+    # solar noon: 90 - |latitude - declination|; 21 June (day 172): declination 23.45 deg
+    assert sun_elevation(48.14894, 172, 12.0) == pytest.approx(90 - (48.14894 - 23.45), abs=0.01)
+    assert sun_elevation(-33.9, 172, 12.0) == pytest.approx(90 - (33.9 + 23.45), abs=0.01)
+    # an equinox (declination ~0): rises at 6, sets at 18 anywhere; the pole sees it on the
+    # horizon all day
+    for lat in (0.0, 48.0, -60.0):
+        assert abs(sun_elevation(lat, 81, 6.0)) < 0.5 and abs(sun_elevation(lat, 81, 18.0)) < 0.5
+    assert abs(sun_elevation(90.0, 81, 3.0)) < 0.5
+    # midnight: below the horizon by 90 - lat + decl (winter, Munich: deep night)
+    assert sun_elevation(48.14894, 355, 0.0) == pytest.approx(-(90 - 48.14894 + 23.45), abs=0.05)
+    # symmetric about noon
+    assert sun_elevation(30, 100, 9.5) == pytest.approx(sun_elevation(30, 100, 14.5))
+
+
+def test_clear_sky_illuminance_is_the_ies_model():
+    # sun at 30 deg, day 2 (E_ext = 1.034 x 127.5 klx): direct 131835 exp(-0.42) 0.5 = 43.3
+    # klx, sky 0.8 + 15.5 sqrt(0.5) = 11.76 klx
+    assert clear_sky_illuminance(30.0, 2) == pytest.approx(43314 + 11760, rel=1e-3)
+    # a high summer sun gives the clear day's ~100 klx, sunrise hundreds, twilight's ends
+    assert 90000 < clear_sky_illuminance(65.0, 172) < 120000
+    assert clear_sky_illuminance(1e-6) == pytest.approx(800, rel=1e-2)
+    assert clear_sky_illuminance(-1e-6) == pytest.approx(800, rel=1e-3)   # continuous
+    assert clear_sky_illuminance(-6.0) == pytest.approx(3.0)
+    assert clear_sky_illuminance(-12.0) == pytest.approx(0.008)
+    assert clear_sky_illuminance(-40.0) == 0.001
+    els = np.linspace(-30, 90, 241)
+    lux = [clear_sky_illuminance(e) for e in els]
+    assert np.all(np.diff(lux) >= 0)                  # brighter the higher the sun
+
+
+def test_time_of_day_drives_daylight_and_the_last_one_set_wins():
+    env = Environment()
+    env.set('latitude', 48.14894)
+    assert env.get('daylight') == 10000 and not env.daylight_from_sun     # not asked: as before
+    seen = []
+    env.on_change.append(lambda n, v: seen.append(n))
+    env.set('time_of_day', 12.0)
+    noon = env.get('daylight')
+    assert env.daylight_from_sun and seen == ['time_of_day', 'daylight']
+    assert noon == pytest.approx(clear_sky_illuminance(sun_elevation(48.14894, 80, 12.0)))
+    assert 60000 < noon < 90000
+    env.set('time_of_day', 0.0)
+    assert env.get('daylight') == 0.001                                   # night
+    env.set('time_of_day', 6.0)
+    assert 300 < env.get('daylight') < 1000                               # sunrise
+    env.set('day_of_year', 172)                                           # June: up earlier
+    assert env.get('daylight') > 5000
+    env.set('latitude', 0.0)                                              # the equator
+    assert env.get('daylight') < 5000
+    env.set('daylight', 1234)                                             # held
+    assert env.get('daylight') == 1234 and not env.daylight_from_sun
+    env.set('day_of_year', 10)
+    assert env.get('daylight') == 1234 and env.get('time_of_day') == 6.0
+    env.set_many([('daylight', 50), ('time_of_day', 12)])                 # the later wins
+    assert env.get('daylight') > 50000
+    env.set_many([('time_of_day', 12), ('daylight', 50)])
+    assert env.get('daylight') == 50
+    with pytest.raises(EnvironmentError, match=r'time_of_day must be a number in \[0, 24\]'):
+        env.set('time_of_day', 25)
+    assert env.get('time_of_day') == 12 and env.get('daylight') == 50      # nothing changed
+    # from a world file: the sun at the world's latitude
+    w = parse_environment_text(WORLD % (
+        '<spherical_coordinates><latitude_deg>48.14894</latitude_deg></spherical_coordinates>'
+        '<environment><time_of_day>12</time_of_day></environment>'))
+    assert w.get('daylight') == pytest.approx(noon)
 
 
 WORLD = '''<sdf version="1.6"><world name="w">%s</world></sdf>'''

@@ -84,6 +84,14 @@ def test_outdoors_daylight_and_environment(world):
     world.environment.set('daylight', 0.0)
     night = reading(world)[2]
     assert night < 100
+    # the time of day: the sun over Munich at noon of an equinox (~75 klx), then midnight
+    world.environment.set('time_of_day', 12.0)
+    noon = world.environment.get('daylight')
+    assert 60000 < noon < 90000
+    assert reading(world, 201)[2] == pytest.approx(noon + night, rel=0.05)
+    world.environment.set('time_of_day', 0.0)
+    assert reading(world, 201)[2] == pytest.approx(night, abs=2)
+    world.environment.set('daylight', 10000)
 
 
 def test_same_seed_same_data():

@@ -31,6 +31,19 @@ The thesis's north offset alpha (figure 3.5) and SDF's heading describe the same
 SDF's world x axis points ``heading`` degrees counter-clockwise from east, so north is at
 alpha = 90 - heading from the world x axis. Either may be given; alpha wins.
 
+**Time of day.** ``time_of_day`` (h, local solar time 0..24; 12 is solar noon) and
+``day_of_year`` (1..366, default 80: 21 March, an equinox) place the sun: its elevation at
+the world origin's ``latitude`` (the world file's ``<spherical_coordinates>``, else the
+equator, 0) is ``sun_elevation`` (declination by Cooper's formula, hour angle 15 degrees an
+hour), and the outdoor ``daylight`` is the clear-sky horizontal illuminance of the IES's
+recommended practice for daylight availability (``clear_sky_illuminance``; below the
+horizon, twilight down to starlight). Which wins is the last one set: setting
+``time_of_day`` makes ``daylight`` follow the sun (also when ``day_of_year`` or ``latitude``
+change later); setting ``daylight`` itself holds it at that value (``time_of_day`` keeps its
+last value, unused) until ``time_of_day`` is set again. Within one ``set_many`` (one
+``/gazebo/set_environment`` request) the later entry wins. A world file that gives neither
+keeps ``daylight`` at its default (10000 lux), as before.
+
 Values are read and changed by name (``get``, ``set``, ``values``); ``set`` checks the value
 and refuses a bad one with ValueError naming it (``/gazebo/set_environment`` answers
 success false). Units are SI except where the name says otherwise (degrees, percent, degC
@@ -44,7 +57,8 @@ import numpy as np
 
 from .model import _local
 
-__all__ = ['Environment', 'IndoorVolume', 'EnvironmentError', 'VALUES', 'parse_environment']
+__all__ = ['Environment', 'IndoorVolume', 'EnvironmentError', 'VALUES', 'parse_environment',
+           'sun_elevation', 'clear_sky_illuminance']
 
 G0 = 9.80665          # m/s^2, standard gravity (ICAO)
 M_AIR = 0.0289644     # kg/mol
@@ -75,7 +89,56 @@ VALUES = {
     'sea_level_temperature': (288.15, 'K', (180.0, 340.0), 'SDF atmosphere temperature'),
     'temperature_gradient': (-0.0065, 'K/m', (-0.05, 0.05), 'SDF atmosphere lapse rate'),
     'daylight': (10000.0, 'lux', (0.0, 150000.0), 'outdoor illuminance, horizontal surface'),
+    'time_of_day': (12.0, 'h', (0.0, 24.0), 'local solar time; setting it makes daylight '
+                                            'follow the sun'),
+    'day_of_year': (80.0, 'day', (1.0, 366.0), "date of the sun's declination (80: 21 "
+                                               "March)"),
 }
+
+# -- the sun ------------------------------------------------------------------------------------
+#: IES clear sky (Recommended Practice for the Calculation of Daylight Availability, J. IES
+#: 13(4) 381-392, 1984; the IESNA Lighting Handbook's daylight availability model): solar
+#: illuminance constant (lux), atmospheric extinction coefficient of a clear sky, and the
+#: clear sky's horizontal sky illuminance A + B sin(elevation)^C (lux)
+SOLAR_ILLUMINANCE = 127500.0
+EXTINCTION_CLEAR = 0.21
+SKY_A, SKY_B, SKY_C = 800.0, 15500.0, 0.5
+#: (sun elevation deg, lux) of a clear twilight (AMS Glossary of Meteorology: civil twilight
+#: ends at -6 degrees with about 3.5-2 lux, nautical at -12 with about 0.008 lux); below
+#: -18 degrees (astronomical night) the starlit sky's 0.001 lux. Log-linear between.
+TWILIGHT = ((-6.0, 3.0), (-12.0, 0.008), (-18.0, 0.001))
+NIGHT_LUX = 0.001
+
+
+def sun_elevation(latitude, day_of_year, hours):
+    """Elevation (deg) of the sun's centre at local solar time ``hours`` (12: solar noon) on
+    ``day_of_year`` at ``latitude`` (deg): declination 23.45 sin(360 (284 + n) / 365) deg
+    (Cooper 1969), hour angle 15 deg per hour from noon; no refraction."""
+    decl = math.radians(23.45 * math.sin(math.radians(360.0 * (284.0 + day_of_year) / 365.0)))
+    lat = math.radians(latitude)
+    omega = math.radians(15.0 * (hours - 12.0))
+    s = math.sin(lat) * math.sin(decl) + math.cos(lat) * math.cos(decl) * math.cos(omega)
+    return math.degrees(math.asin(max(-1.0, min(1.0, s))))
+
+
+def clear_sky_illuminance(elevation, day_of_year=80.0):
+    """Outdoor horizontal illuminance (lux) under a clear sky with the sun at ``elevation``
+    (deg). Sun above the horizon (IES 1984): direct E_ext exp(-c m) sin(el), with E_ext the
+    solar illuminance constant corrected for the Earth's orbit (1 + 0.034 cos(2 pi (n - 2) /
+    365)), c the clear sky's extinction coefficient and m = 1 / sin(el) the air mass, plus the
+    sky's A + B sin(el)^C. Below it: the twilight table (``TWILIGHT``), continuous with the
+    sky's A at the horizon."""
+    if elevation > 0.0:
+        s = math.sin(math.radians(elevation))
+        e_ext = SOLAR_ILLUMINANCE * (1.0 + 0.034 * math.cos(2.0 * math.pi *
+                                                            (day_of_year - 2.0) / 365.0))
+        return e_ext * math.exp(-EXTINCTION_CLEAR / s) * s + SKY_A + SKY_B * s ** SKY_C
+    pts = ((0.0, SKY_A),) + TWILIGHT
+    for (e0, l0), (e1, l1) in zip(pts, pts[1:]):
+        if elevation >= e1:
+            f = (elevation - e0) / (e1 - e0)
+            return 10.0 ** (math.log10(l0) + f * (math.log10(l1) - math.log10(l0)))
+    return NIGHT_LUX
 
 
 def _vec(text, n, what):
@@ -203,6 +266,7 @@ class Environment(object):
         self.on_change = []
         self._proj = None
         self._field_cache = None
+        self.daylight_from_sun = False    # daylight follows time_of_day (see the module doc)
 
     # -- values ------------------------------------------------------------------------------------
     def get(self, name):
@@ -253,8 +317,27 @@ class Environment(object):
         if name in ('latitude', 'longitude', 'elevation', 'magnetic_epoch'):
             self._field_cache = None
             self._proj = None
+        if name == 'daylight':
+            self.daylight_from_sun = False
+        elif name == 'time_of_day':
+            self.daylight_from_sun = True
         for cb in list(self.on_change):
             cb(name, v)
+        if self.daylight_from_sun and name in ('time_of_day', 'day_of_year', 'latitude'):
+            d = min(VALUES['daylight'][2][1], self.sun_daylight())
+            self._v['daylight'] = d
+            for cb in list(self.on_change):
+                cb('daylight', d)
+
+    def sun_elevation(self):
+        """The sun's elevation (deg) at the world origin now (``time_of_day``,
+        ``day_of_year``, ``latitude``)."""
+        v = self._v
+        return sun_elevation(v['latitude'], v['day_of_year'], v['time_of_day'])
+
+    def sun_daylight(self):
+        """The clear-sky daylight (lux) of the sun's elevation now."""
+        return clear_sky_illuminance(self.sun_elevation(), self._v['day_of_year'])
 
     def values(self):
         """{name: value} of every value (derived magnetic elements filled in)."""

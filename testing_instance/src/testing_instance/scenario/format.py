@@ -22,7 +22,8 @@ __all__ = ['ScenarioError', 'Scenario', 'load', 'loads', 'ACTIONS', 'PREDICATE_K
 ENV_NAMES = ('latitude', 'longitude', 'elevation', 'heading', 'north_alpha',
              'magnetic_magnitude', 'magnetic_inclination', 'magnetic_declination',
              'temperature', 'indoor_temperature', 'humidity', 'pressure_offset',
-             'sea_level_pressure', 'sea_level_temperature', 'temperature_gradient', 'daylight')
+             'sea_level_pressure', 'sea_level_temperature', 'temperature_gradient', 'daylight',
+             'time_of_day', 'day_of_year')
 
 MODES = ('eventually', 'always', 'never', 'count', 'rate')
 

@@ -204,6 +204,7 @@ class WorldHost(object):
         while not rospy.is_shutdown():
             run_loop(self.world, self.api, real_time_factor=self.rtf,
                      publish_rate=self.publish_rate, should_stop=self._stop_loop)
+            self.rtf = self.api.real_time_factor     # set_physics_properties' pace is kept
             if self._pending is not None and not rospy.is_shutdown():
                 self._do_reload(*self._pending)
 
@@ -249,10 +250,12 @@ class WorldHost(object):
                              % (self.world.seed, seed))
         seed = self.world.seed if seed == -1 else seed
         rtf = float(req.real_time_factor)
+        now = self.api.real_time_factor      # the pace now (set_physics_properties')
+        now = self.rtf if now is None else now
         if not math.isfinite(rtf):        # -inf too: -1 is the 'keep' the type documents
             raise ValueError('real_time_factor must be a number (< 0: keep %g), got %r'
-                             % (self.rtf, rtf))
-        rtf = self.rtf if rtf < 0 else rtf
+                             % (now, rtf))
+        rtf = now if rtf < 0 else rtf
         start = self.start_models
         if start is None:                 # the first reload: what the launch spawned
             start = [(n, kind, r) for n, (kind, r) in self.api.spawned.items()

@@ -790,6 +790,17 @@ class PhysicsEngine(object):
         self.gravity = check_vector(g, 'gravity')
         self._set_gravity(self.gravity)
 
+    def solver_config(self):
+        """The solver settings gazebo_msgs/ODEPhysics names, as a dict of its fields, for an
+        engine that has them (ODE); None otherwise."""
+        return None
+
+    def set_solver_config(self, **fields):
+        """Sets the ODEPhysics fields an engine can change now (ValueError naming a field
+        it cannot take)."""
+        raise ValueError('ode_config applies to the ode engine; this world runs %s'
+                         % self.name)
+
     def close(self):
         pass
 

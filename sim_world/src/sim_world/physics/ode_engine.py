@@ -500,6 +500,47 @@ class OdeEngine(PhysicsEngine):
     def _set_gravity(self, g):
         self._world.setGravity(tuple(float(x) for x in g))
 
+    #: ODEPhysics fields the world sets once and keeps (their values, as the solver runs)
+    FIXED_SOLVER = {'auto_disable_bodies': False, 'sor_pgs_precon_iters': 0,
+                    'sor_pgs_w': 1.0, 'sor_pgs_rms_error_tol': 0.0,
+                    'max_contacts': MAX_CONTACTS}
+    #: the ones /gazebo/set_physics_properties may change: (setter, check, what it must be)
+    SETTABLE_SOLVER = {
+        'sor_pgs_iters': ('setQuickStepNumIterations', lambda v: v >= 1, 'an integer >= 1'),
+        'erp': ('setERP', lambda v: 0.0 <= v <= 1.0, 'in [0, 1]'),
+        'cfm': ('setCFM', lambda v: v >= 0.0, '>= 0'),
+        'contact_surface_layer': ('setContactSurfaceLayer', lambda v: v >= 0.0, '>= 0 m'),
+        'contact_max_correcting_vel': ('setContactMaxCorrectingVel', lambda v: v >= 0.0,
+                                       '>= 0 m/s'),
+    }
+
+    def solver_config(self):
+        w = self._world
+        out = dict(self.FIXED_SOLVER)
+        out.update(sor_pgs_iters=int(w.getQuickStepNumIterations()), erp=float(w.getERP()),
+                   cfm=float(w.getCFM()),
+                   contact_surface_layer=float(w.getContactSurfaceLayer()),
+                   contact_max_correcting_vel=float(w.getContactMaxCorrectingVel()))
+        return out
+
+    def set_solver_config(self, **fields):
+        import math
+        for k, v in fields.items():            # every field checked before any is set
+            if k in self.FIXED_SOLVER:
+                if v != self.FIXED_SOLVER[k]:
+                    raise ValueError('ode_config.%s is fixed at %r in this world, got %r'
+                                     % (k, self.FIXED_SOLVER[k], v))
+            elif k in self.SETTABLE_SOLVER:
+                _setter, ok, must = self.SETTABLE_SOLVER[k]
+                if not (math.isfinite(v) and ok(v)):
+                    raise ValueError('ode_config.%s must be %s, got %r' % (k, must, v))
+            else:
+                raise ValueError('ode_config has no field %r' % k)
+        for k, v in fields.items():
+            if k in self.SETTABLE_SOLVER:
+                getattr(self._world, self.SETTABLE_SOLVER[k][0])(
+                    int(v) if k == 'sor_pgs_iters' else float(v))
+
     # ---- contacts and stepping -------------------------------------------------------------
     def _near(self, _arg, g1, g2):
         # ODE's hash space reports pairs in an order that depends on memory addresses:

@@ -23,7 +23,8 @@ from . import protocol
 __all__ = ['NAMES', 'load', 'handler']
 
 #: the extension modules, in the order they are loaded
-NAMES = ('moves', 'overlay', 'builder', 'study', 'editor', 'timetravel', 'barcode', 'spawned')
+NAMES = ('moves', 'overlay', 'builder', 'study', 'editor', 'timetravel', 'barcode', 'spawned',
+         'physics')
 
 _HANDLERS = {}
 _LOADED = {}                # name -> module

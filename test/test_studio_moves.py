@@ -178,3 +178,62 @@ def test_bad_moves_are_one_error_and_nothing_moves(shared_studio, page):
     time.sleep(0.3)
     assert np.allclose(model_state(shared_studio)[0], before, atol=1e-3)
     assert page.errors == [] and page.outside == []
+
+
+def _device(page, topic, field):
+    """The device panel's latest value of a topic's field (None until it has one)."""
+    return page.evaluate("(() => { const v = studio.device && studio.device[%r]; if (!v) "
+                         "return null; const f = v.fields.find((f) => f[0] === %r); "
+                         "return f ? f[1] : null; })()" % (topic, field))
+
+
+def test_nfc_switch_walk_height_vibration_and_time_of_day(shared_studio, page):
+    """The NFC switch publishes nfc/enable and is recorded as the runner's radio action; a
+    walk's waypoints take the height field (empty: the phone's); the vibration shows the
+    motor's state (still: off); the time of day sets the world's time_of_day, and the
+    phone's light sensor outdoors reads the sun's daylight: noon bright, midnight dark."""
+    code, rep = post(shared_studio, json.dumps({'v': 1, 'op': 'record', 'on': True}))
+    assert code == 200 and rep['recording'], rep
+    box = page.get_by_test_id('radio-nfc')
+    assert box.is_enabled() and box.is_checked()
+    box.uncheck(no_wait_after=True, force=True, timeout=90000)
+    _until(lambda: _device(page, '/mobile_device/nfc/enable', 'data') == 0.0, timeout=60,
+           what='nfc/enable false in the device panel')
+    box.check(no_wait_after=True, force=True, timeout=90000)
+    _until(lambda: _device(page, '/mobile_device/nfc/enable', 'data') == 1.0, timeout=60,
+           what='nfc/enable true again')
+    code, rep = post(shared_studio, json.dumps({'v': 1, 'op': 'record', 'on': False}))
+    assert 'action: radio, ns: mobile_device, radio: nfc, enabled: false' in rep['yaml'], rep
+    # the walk's height: the field's, else the phone's height now
+    page.get_by_test_id('walk-clear').click(no_wait_after=True, force=True, timeout=90000)
+    page.get_by_test_id('walk-height').fill('1.1', no_wait_after=True, force=True, timeout=90000)
+    p = page.evaluate('studio.moves.topPoint(2.0, -1.0)')
+    page.mouse.click(p['x'], p['y'])
+    page.get_by_test_id('walk-height').fill('', no_wait_after=True, force=True, timeout=90000)
+    page.mouse.click(p['x'], p['y'])
+    wps = page.evaluate('[studio.moves.waypoints, studio.models[studio.selected].position.z]')
+    assert wps[0][0][2] == 1.1 and wps[0][1][2] == wps[1], wps
+    page.get_by_test_id('walk-clear').click(no_wait_after=True, force=True, timeout=90000)
+    # the vibration motor is still: its state topic says so
+    _until(lambda: page.get_by_test_id('out-vibration').text_content() == 'off', timeout=60,
+           what='the vibration state')
+    # the time of day, outdoors (east of the office's door), face up on the ground
+    start, _q = model_state(shared_studio)
+    post(shared_studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
+                                    'position': [9.0, -3.0, 0.02], 'rpy': [0, 0, 0]}))
+    lux = lambda: _device(page, '/mobile_device/illuminance', 'illuminance')   # noqa: E731
+    try:
+        for hour, ok in (('12', lambda v: v > 30000), ('0', lambda v: v < 100)):
+            page.get_by_test_id('time-of-day').select_option(hour, no_wait_after=True,
+                                                             force=True, timeout=90000)
+            assert page.get_by_test_id('env-time_of_day').input_value() == hour
+            assert page.get_by_test_id('env-daylight').input_value() == ''
+            page.get_by_test_id('env-set').click(no_wait_after=True, force=True, timeout=90000)
+            _until(lambda: (lambda v: v is not None and ok(v))(lux()), timeout=60,
+                   what='the light sensor at %s:00' % hour)
+    finally:
+        post(shared_studio, json.dumps({'v': 1, 'op': 'set_environment',
+                                        'values': {'daylight': 10000}}))
+        post(shared_studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
+                                        'position': start, 'rpy': [0, 0, 0]}))
+    assert page.errors == []

@@ -73,6 +73,8 @@ def _accel_var(w, imu, seconds):
 
 def test_imu_variance_rises_while_vibrating_and_falls_after(phone):
     w, vib, imu = phone
+    state = vib.outputs['state']
+    assert state.topic.endswith('/vibration/state') and state.last.data == 0.0
     w.step(100)
     quiet = _accel_var(w, imu, 1.0)
     assert quiet < 4 * 3 * 0.05 ** 2                       # the CDD noise alone
@@ -80,11 +82,13 @@ def test_imu_variance_rises_while_vibrating_and_falls_after(phone):
     w.step(10)
     p0 = w.link_pose('mobile_device', 'mobile_base_link').p
     busy = _accel_var(w, imu, 0.9)
-    assert vib.amplitude_now == 1.0
+    assert vib.amplitude_now == 1.0 and state.last.data == 1.0    # runs now
+    n = state.count
     assert w.power.draws('mobile_device')['vibration'] == pytest.approx(0.1)
     assert busy > 20 * quiet, (busy, quiet)
     w.step(200)                                            # the one-shot is over
     assert vib.amplitude_now == 0.0 and w.power.draws('mobile_device')['vibration'] == 0.0
+    assert state.last.data == 0.0 and state.count == n + 1     # on change only: one message
     after = _accel_var(w, imu, 1.0)
     assert after < 4 * 3 * 0.05 ** 2 and after < busy / 20
     # zero mean: the phone did not wander off (a one-sided force would move it metres)

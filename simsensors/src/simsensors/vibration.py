@@ -25,7 +25,10 @@ Why 7 ms and not 5: the phone's IMU differentiates its velocity over its 10 ms p
 the accelerometer. With 7 ms the 10 ms window holds a partial period and the accelerometer
 sees up to 0.3 x the force: the variance rises while the motor runs.
 
-The battery sees ``power`` W x amplitude while it runs. Bad input (timings and amplitudes of
+Whether the motor runs now: ``vibration/state`` (std_msgs/Float32, latched, published on
+every change: the amplitude 0..1 it runs at, 0 when it stands still; ``stateTopicName``),
+what a command on ``vibrate`` only asks for. The battery sees ``power`` W x amplitude while
+it runs. Bad input (timings and amplitudes of
 different length, a negative or NaN timing, an amplitude outside 0..1, a bad repeat index):
 one error line naming it; the motor keeps doing what it did.
 """
@@ -126,6 +129,9 @@ class Vibration(Actuator):
               check=lambda v: bool(np.linalg.norm(v) > 0), check_text='a non-zero vector',
               doc='force direction in the body frame (diagonal across the phone)'),
         Param('power', float, 0.1, unit='W', check='>=0', doc='draw at amplitude 1'),
+        Param('stateTopicName', str, 'vibration/state', aliases=('state_topic',),
+              doc='std_msgs/Float32 of the amplitude the motor runs at now (0: still), '
+                  'latched, on change'),
     ]
 
     def setup(self):
@@ -136,6 +142,11 @@ class Vibration(Actuator):
         self.key = ('vibration', self.spec.name or self.spec.filename)
         self.amplitude_now = 0.0
         self.queued = None            # the last rows queued (world frame, N), for tests
+        from std_msgs.msg import Float32
+        self.Float32 = Float32
+        self.output('state', Float32, topic=p.stateTopicName, latch=True, noisy=False,
+                    on_change=True)
+        self._show(0.0)
         from mobile_device_sim.msg import Vibration as VibrationMsg
         self.subscribe(self.topic, VibrationMsg,
                        lambda m: self.vibrate(m.timings, m.amplitudes, m.repeat))
@@ -192,6 +203,11 @@ class Vibration(Actuator):
         self.amplitude_now = a
         self.last_value = a
         self.power('vibration', self.p.power * a)
+        self._show(a)
+
+    def _show(self, a):
+        """``vibration/state``: the amplitude now (published when it changes)."""
+        self.emit('state', self.Float32(data=float(a)))
 
     def _stop(self):
         self.amplitude_now = 0.0
@@ -199,6 +215,7 @@ class Vibration(Actuator):
         self.queued = None
         self.world.clear_wrench(self.model.name, self.key)
         self.power('vibration', 0.0)
+        self._show(0.0)
 
     def reset(self):
         Actuator.reset(self)

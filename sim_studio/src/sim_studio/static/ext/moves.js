@@ -51,8 +51,12 @@
   const walkB = el('button', {testid: 'walk'}, 'walk');
   const clearB = el('button', {testid: 'walk-clear'}, 'clear');
   const wpText = el('span', {testid: 'waypoints'}, '');
+  // the height (m, world z) of the waypoints clicked next; empty: the model's height now
+  const height = el('input', {type: 'number', step: '0.05', testid: 'walk-height',
+                              style: 'width:5em', placeholder: 'height m',
+                              title: "height of the clicked waypoints, m (empty: the model's now)"});
   const row = el('div', {class: 'row'});
-  row.append('speed ', speed, ' m/s ', walkB, clearB, ' ', wpText);
+  row.append('speed ', speed, ' m/s height ', height, ' m ', walkB, clearB, ' ', wpText);
   moves.append(el('div', {class: 'hint'}, 'top view: click waypoints, then walk'), top, row);
   const topCam = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.1, 200);
   topCam.up.set(0, 1, 0);
@@ -99,6 +103,7 @@
     const px = (p) => [(p[0] - M.bounds[0]) / (M.bounds[1] - M.bounds[0]) * top.width,
                        (M.bounds[3] - p[1]) / (M.bounds[3] - M.bounds[2]) * top.height];
     const obj = studio.models[studio.selected];
+    if (obj) height.placeholder = obj.position.z.toFixed(2) + ' (now)';
     const pts = [];
     if (obj) pts.push([obj.position.x, obj.position.y]);
     for (const w of M.waypoints) pts.push(w);
@@ -125,7 +130,8 @@
     if (!M.bounds) return;
     const obj = studio.models[studio.selected];
     const xy = topWorld(e);
-    M.waypoints.push([xy[0], xy[1], obj ? obj.position.z : 1.0]);
+    const z = parseFloat(height.value);
+    M.waypoints.push([xy[0], xy[1], Number.isFinite(z) ? z : (obj ? obj.position.z : 1.0)]);
     wpText.textContent = M.waypoints.length + ' waypoint(s)';
     drawTop();
   });
@@ -281,25 +287,34 @@
     btn.onclick = () => studio.send({op: 'press_button', model: phone(), button: b}).then(say);
     buttons.append(btn);
   }
-  // the environment (names of /gazebo/set_environment); time of day as daylight's lux
+  // the environment (names of /gazebo/set_environment): the time of day (local solar
+  // hours: the world's daylight then follows the sun) or the daylight's lux, whichever was
+  // filled in last (the other is emptied), the temperature, the magnetic declination
   const env = el('form', {testid: 'environment'});
-  const DAY = [['', 'time of day'], ['0.3', 'night (0.3 lux)'], ['400', 'sunrise (400 lux)'],
-               ['10000', 'overcast day (10000 lux)'], ['100000', 'sunny noon (100000 lux)']];
-  const day = el('select', {name: 'daylight_preset', testid: 'time-of-day'});
+  const DAY = [['', 'time of day'], ['0', 'midnight (0:00)'], ['6', 'sunrise (6:00)'],
+               ['9', 'morning (9:00)'], ['12', 'noon (12:00)'], ['18', 'sunset (18:00)'],
+               ['21', 'night (21:00)']];
+  const day = el('select', {name: 'time_preset', testid: 'time-of-day'});
   for (const [k, text] of DAY) day.append(el('option', {value: k}, text));
   const num = (name, title, w) => el('input', {type: 'number', step: 'any', name: name,
                                                title: title, placeholder: title,
                                                testid: 'env-' + name, style: 'width:' + w});
+  const hours = num('time_of_day', 'time of day h', '5em');
+  hours.min = '0'; hours.max = '24';
   const temp = num('temperature', 'temperature degC', '5em');
   const light = num('daylight', 'daylight lux', '6em');
   const decl = num('magnetic_declination', 'declination deg', '6em');
-  day.onchange = () => { if (day.value !== '') light.value = day.value; };
+  day.onchange = () => { if (day.value !== '') { hours.value = day.value; light.value = ''; } };
+  hours.addEventListener('input', () => { if (hours.value !== '') light.value = ''; });
+  light.addEventListener('input', () => {
+    if (light.value !== '') { hours.value = ''; day.value = ''; }
+  });
   const setEnv = el('button', {type: 'submit', testid: 'env-set'}, 'set');
-  env.append(day, ' ', temp, ' ', light, ' ', decl, ' ', setEnv);
+  env.append(day, ' ', hours, ' ', temp, ' ', light, ' ', decl, ' ', setEnv);
   env.onsubmit = (e) => {
     e.preventDefault();
     const values = {};
-    for (const i of [temp, light, decl]) {
+    for (const i of [hours, temp, light, decl]) {
       if (i.value !== '') values[i.name] = parseFloat(i.value);
     }
     studio.send({op: 'set_environment', values: values}).then(say);
@@ -307,7 +322,7 @@
   // outputs
   const outs = el('div', {class: 'row outputs'});
   const led = el('span', {class: 'led', testid: 'out-led', title: 'LED (led/state)'});
-  const vib = el('span', {testid: 'out-vibration'}, '-');
+  const vib = el('span', {testid: 'out-vibration', title: 'the motor now (vibration/state)'}, '-');
   const spk = el('span', {testid: 'out-speaker'}, '-');
   const proj = el('span', {testid: 'out-projector'}, '-');
   outs.append('LED ', led, ' vibration ', vib, ' speaker ', spk, ' projector ', proj);
@@ -327,8 +342,13 @@
       led.style.background = ls.a ? 'rgb(' + [ls.r, ls.g, ls.b].map((x) => Math.round(x * 255)) + ')' : '#222';
       led.dataset.rgba = [ls.r, ls.g, ls.b, ls.a].join(',');
     }
-    const vb = fields(m.topics[ns + 'vibrate']);
-    if (vb) vib.textContent = vb['amplitudes[0]'] !== undefined ? 'amplitude ' + vb['amplitudes[0]'] : 'off';
+    // whether the motor runs now (the plugin's vibration/state: the amplitude now), not
+    // the last command
+    const vb = fields(m.topics[ns + 'vibration/state']);
+    if (vb) {
+      vib.textContent = vb.data > 0 ? 'running (amplitude ' + (+vb.data).toFixed(2) + ')' : 'off';
+      vib.dataset.amplitude = vb.data;
+    }
     const pj = fields(m.topics[ns + 'projector/enable']);
     if (pj) proj.textContent = pj.data ? 'on' : 'off';
     for (const topic of Object.keys(m.topics).sort()) {

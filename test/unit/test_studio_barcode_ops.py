@@ -53,10 +53,10 @@ class World(FakeWorld):
     def watch_images(self, topics):
         self.watched.append(list(topics))
 
-    def image_jpeg(self, topic):
+    def image_jpeg(self, topic, width=None):
         from sim_studio.world import jpeg_of
         self.encoded.append(topic)
-        return jpeg_of(self.images.get(topic))
+        return jpeg_of(self.images.get(topic), width=width)
 
 
 def studio(world=None, models=(PHONE,)):
@@ -215,16 +215,18 @@ def test_each_display_streams_its_own_topic_latest_wins_a_new_image_only():
     assert len(s.world.encoded) == n
 
 
-def test_a_display_showing_the_camera_topic_reuses_the_camera_panels_jpeg():
+def test_a_large_display_image_is_sent_scaled_to_the_pages_view():
+    from PIL import Image
+    import io
+    from sim_studio.server import DISPLAY_WIDTH
     s = studio(models=[phone('mobile_device', CAMERA)])
-    s.world.show(qr_image())
-    s._cam = [0.0, s.world.image_seq]
-    s.last_jpeg = b'\xff\xd8the camera panel jpeg'
+    s.world.show(qr_image())                                  # 840 x 1188
     c = Client(FakeWs(), '127.0.0.1')
     s.clients.append(c)
     tick(s, 50.0)
-    assert base64.b64decode(shown(c, 'mobile_device')['jpeg']) == s.last_jpeg
-    assert s.world.encoded == []
+    img = Image.open(io.BytesIO(base64.b64decode(shown(c, 'mobile_device')['jpeg'])))
+    assert img.size == (DISPLAY_WIDTH, round(1188 * DISPLAY_WIDTH / 840))
+    assert barcode.decode(image(np.asarray(img.convert('RGB'))))[0]['data'] == URL
 
 
 def test_the_world_link_watches_each_display_topic_once_beside_the_camera():

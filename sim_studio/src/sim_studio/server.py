@@ -36,6 +36,7 @@ PKG_ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file_
 RUN_SCENARIO = os.path.join(PKG_ROOT, 'testing_instance', 'nodes', 'run_scenario')
 VERDICT = re.compile(r'^(PASS|FAIL|ERROR) ([\w.-]+):? ?(.*)$')
 STATUS = {0: 'PASS', 1: 'FAIL'}
+DISPLAY_WIDTH = 300      # px at most of the display stream's images (twice the page's view)
 
 
 class Client(object):
@@ -396,8 +397,9 @@ class Studio(object):
     async def _stream_displays(self, loop, now):
         """Each phone display's image topic as its own stream (``{"type": "display",
         "model", "topic", "t", "jpeg": base64}``, slot ``display:MODEL``, latest wins) at
-        most ``display_rate`` Hz, a new image only; the topics are subscribed (queue size 1)
-        once a client watches. A display that shows the camera topic reuses its JPEG."""
+        most ``display_rate`` Hz, a new image only, at most DISPLAY_WIDTH pixels wide (the
+        page draws it 150 px wide); the topics are subscribed (queue size 1) once a client
+        watches."""
         shown = self.displays()
         if not shown or not self.display_rate > 0:
             return
@@ -416,12 +418,7 @@ class Studio(object):
                 continue
             cached = self._disp_jpeg.get(topic)
             if cached is None or cached[0] != seq:
-                if topic == getattr(w, 'camera_topic', None) and \
-                        getattr(self, '_cam', (0, -1))[1] == seq and \
-                        self.last_jpeg:
-                    jpeg = self.last_jpeg
-                else:
-                    jpeg = await loop.run_in_executor(None, w.image_jpeg, topic)
+                jpeg = await loop.run_in_executor(None, w.image_jpeg, topic, DISPLAY_WIDTH)
                 cached = self._disp_jpeg[topic] = (seq, base64.b64encode(jpeg).decode()
                                                    if jpeg else None)
             self._disp[model] = (now, seq)

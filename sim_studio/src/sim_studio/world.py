@@ -253,14 +253,16 @@ class WorldLink(object):
         """The latest camera image as JPEG bytes (None: none yet)."""
         return jpeg_of(self.image, quality)
 
-    def image_jpeg(self, topic, quality=70):
-        """The latest image of a watched ``topic`` as JPEG bytes (None: none yet)."""
-        return jpeg_of(self.images.get(topic), quality)
+    def image_jpeg(self, topic, width=None, quality=70):
+        """The latest image of a watched ``topic`` as JPEG bytes, at most ``width`` pixels
+        wide (None: none yet)."""
+        return jpeg_of(self.images.get(topic), quality, width)
 
 
-def jpeg_of(msg, quality=70):
-    """A sensor_msgs/Image (rgb8, bgr8, rgba8, bgra8, mono8) as JPEG bytes; None for None or
-    another encoding."""
+def jpeg_of(msg, quality=70, width=None):
+    """A sensor_msgs/Image (rgb8, bgr8, rgba8, bgra8, mono8) as JPEG bytes, scaled down to
+    ``width`` pixels (its aspect kept) when it is wider; None for None or another
+    encoding."""
     if msg is None:
         return None
     import cv2
@@ -275,5 +277,8 @@ def jpeg_of(msg, quality=70):
         a = cv2.cvtColor(a, cv2.COLOR_RGBA2BGR if ch == 4 else cv2.COLOR_RGB2BGR)
     elif enc == 'bgra8':
         a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
+    if width and msg.width > width:
+        a = cv2.resize(a, (int(width), max(1, int(round(msg.height * width / msg.width)))),
+                       interpolation=cv2.INTER_AREA)
     ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
     return buf.tobytes() if ok else None

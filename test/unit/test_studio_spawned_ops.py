@@ -85,10 +85,11 @@ class World(object):
     def rtf(self):
         return 1.0
 
-    def _call(self, service, _typ, name):
-        self.asked.append((service, name))
+    def model_description(self, name):
+        self.asked.append(name)
         if name not in self.descriptions:
-            raise WorldError('%s: GetModelDescription: no model named %r' % (service, name))
+            raise WorldError('/gazebo/get_model_description: GetModelDescription: no model '
+                             'named %r' % name)
         fmt, xml = self.descriptions[name]
         return SimpleNamespace(success=True, format=fmt, xml=xml, robot_namespace='',
                                base_dir='')
@@ -124,8 +125,7 @@ def test_the_watch_adds_refuses_and_drops_models():
     ghost = next(m for m in sc['models'] if m['name'] == 'ghost')
     assert ghost['links'] == []                              # the page's box
     assert len(lines) == 1 and 'ghost' in lines[0] and 'no model named' in lines[0]
-    assert w.asked == [('/gazebo/get_model_description', 'crate'),
-                       ('/gazebo/get_model_description', 'ghost')]
+    assert w.asked == ['crate', 'ghost']
     assert c.got['scene_models']['models'] == ['crate', 'desk']
     v = c.got['scene_models']['version']
     # its icons, where the model is now (not where its file put it)

@@ -50,9 +50,8 @@ def state(studio):
 def describe(studio, name):
     """(scene description, icons) of model ``name`` as the world describes it
     (/gazebo/get_model_description); raises with the reason when it cannot."""
-    from mobile_device_sim.srv import GetModelDescription
     from .scene import describe_model, description_model
-    res = studio.world._call('/gazebo/get_model_description', GetModelDescription, name)
+    res = studio.world.model_description(name)
     model = description_model(res.format, res.xml, name, res.robot_namespace, res.base_dir)
     desc = describe_model(model, studio.assets)
     return desc, model_icons(model)
@@ -143,7 +142,7 @@ async def tick(studio, loop=None):
     if not names:                       # no /gazebo/model_states yet
         return []
     # a test's stand-in for the world without services: nothing to ask
-    can_ask = hasattr(studio.world, '_call')
+    can_ask = hasattr(studio.world, 'model_description')
     changed = False
     for name in sorted(st.present - names):
         known = any(m['name'] == name for m in studio.scene_models)

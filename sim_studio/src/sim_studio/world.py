@@ -208,6 +208,12 @@ class WorldLink(object):
         p, q = res.pose.position, res.pose.orientation
         return [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
 
+    def model_description(self, model):
+        """The world's /gazebo/get_model_description answer for ``model`` (format, xml,
+        robot_namespace, base_dir); WorldError when it has none."""
+        from mobile_device_sim.srv import GetModelDescription
+        return self._call('/gazebo/get_model_description', GetModelDescription, model)
+
     def touch(self, model, x, y, duration, size):
         """A touch at (x, y) in 0..1 of the display of ``size`` (width, height) px, which
         the studio knows from the model's description (scene.display_of)."""

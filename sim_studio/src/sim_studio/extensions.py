@@ -24,7 +24,7 @@ __all__ = ['NAMES', 'load', 'handler']
 
 #: the extension modules, in the order they are loaded
 NAMES = ('moves', 'overlay', 'builder', 'study', 'editor', 'timetravel', 'barcode', 'spawned',
-         'physics')
+         'physics', 'images')
 
 _HANDLERS = {}
 _LOADED = {}                # name -> module

@@ -141,3 +141,39 @@ def test_the_watch_adds_refuses_and_drops_models():
     w.names.add('crate')
     assert asyncio.run(spawned.tick(st)) == ['crate']
     assert [m['name'] for m in st.scene_models] == ['crate']
+
+
+def test_a_phone_spawned_later_joins_the_device_panel():
+    from sim_studio.device import DeviceWatch
+    rospy = SimpleNamespace(get_published_topics=lambda: [
+        ('/phone3/imu_sensor_data', 'sensor_msgs/Imu'), ('/phone3/image_raw', 'sensor_msgs/Image'),
+        ('/mobile_device/fix', 'sensor_msgs/NavSatFix'), ('/clock', 'rosgraph_msgs/Clock')])
+    studio = SimpleNamespace(device=None, world=SimpleNamespace(rospy=rospy))
+    spawned.watch_phone(studio, 'phone3')            # no phone at start: the panel is made
+    assert studio.device.wanted(rospy.get_published_topics()) == [
+        ('/phone3/imu_sensor_data', 'sensor_msgs/Imu')]
+    studio.device = DeviceWatch(rospy, ['mobile_device'])
+    spawned.watch_phone(studio, '/phone3')
+    spawned.watch_phone(studio, 'phone3')            # once
+    assert studio.device.namespaces == ['/mobile_device/', '/phone3/']
+    assert [t for t, _ in studio.device.wanted(rospy.get_published_topics())] == [
+        '/mobile_device/fix', '/phone3/imu_sensor_data']
+
+
+def test_the_display_stream_subscribes_a_later_phones_display():
+    w = World()
+    watched = []
+    w.watch_images = watched.append
+    w.image_seqs, w.camera_topic = {}, '/mobile_device/image_raw'
+    st = Studio(w, [{'name': 'mobile_device', 'links': [], 'pose': None,
+                     'display': {'image_topic': '/mobile_device/image_raw'}}])
+
+    async def run():
+        loop = asyncio.get_event_loop()
+        await st._stream_displays(loop, 1.0)
+        st.scene_models.append({'name': 'phone3', 'links': [], 'pose': None,
+                                'display': {'image_topic': '/phone3/screen'}})
+        await st._stream_displays(loop, 2.0)
+        await st._stream_displays(loop, 3.0)
+    asyncio.run(run())
+    assert watched == [['/mobile_device/image_raw'], ['/phone3/screen']]

@@ -75,6 +75,13 @@ class DeviceWatch(object):
         self.latest = {}            # topic -> (message, count)
         self._lock = threading.Lock()
 
+    def add(self, namespace):
+        """Watch the topics of one more phone (one spawned after the studio started): found
+        by the next ``refresh``."""
+        ns = '/%s/' % namespace.strip('/')
+        if ns not in self.namespaces:
+            self.namespaces.append(ns)
+
     def wanted(self, topics):
         """[(topic, type)] of the master's ``topics`` the panel shows."""
         return sorted((t, ty) for t, ty in topics

@@ -118,7 +118,7 @@ class Studio(object):
         self.want_display = False        # a new client: send the displays' latest again
         self._disp = {}                  # model -> (when its image went out, its seq)
         self._disp_jpeg = {}             # topic -> (seq, base64 JPEG)
-        self._displays_watched = False
+        self._displays_watched = set()   # the display image topics subscribed
         self.device = None           # device.DeviceWatch (None: no device panel)
         self.device_rate = 4.0       # Hz of the device panel's values
         self._device_at = [0.0, 0.0]  # when they went out, when topics were looked for
@@ -404,9 +404,12 @@ class Studio(object):
         if not shown or not self.display_rate > 0:
             return
         w = self.world
-        if not self._displays_watched and hasattr(w, 'watch_images'):
-            self._displays_watched = True
-            await loop.run_in_executor(None, w.watch_images, sorted({t for _m, t in shown}))
+        topics = {t for _m, t in shown}
+        if not topics <= self._displays_watched and hasattr(w, 'watch_images'):
+            # the phones' displays, also of a phone spawned after the studio started
+            new = sorted(topics - self._displays_watched)
+            self._displays_watched |= topics
+            await loop.run_in_executor(None, w.watch_images, new)
         if self.want_display:
             self.want_display = False
             self._disp.clear()

@@ -125,6 +125,21 @@ def _add(studio, st, name, desc, model_icons_):
         st.icons[name] = model_icons_
 
 
+def watch_phone(studio, name):
+    """A phone (a model with a touch display) that came after the studio started: its
+    topics join the device panel (``DeviceWatch.add``; made here when the world had no phone
+    at start); its display's image topic is in ``scene_models`` and the display stream
+    subscribes it."""
+    if getattr(studio, 'device', None) is None:
+        rospy = getattr(studio.world, 'rospy', None)
+        if rospy is None:
+            return
+        from .device import DeviceWatch
+        studio.device = DeviceWatch(rospy, [name])
+    else:
+        studio.device.add(name)
+
+
 def _tell(studio, st):
     st.version += 1
     studio.broadcast('scene_models', {'version': st.version,
@@ -166,6 +181,8 @@ async def tick(studio, loop=None):
             st.asked.discard(name)      # deleted while it was being described
             continue
         _add(studio, st, name, desc, ics)
+        if desc.get('display'):
+            await loop.run_in_executor(None, watch_phone, studio, name)
         changed = True
     if changed:
         _tell(studio, st)

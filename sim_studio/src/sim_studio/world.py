@@ -285,6 +285,6 @@ def jpeg_of(msg, quality=70, width=None):
         a = cv2.cvtColor(a, cv2.COLOR_BGRA2BGR)
     if width and msg.width > width:
         a = cv2.resize(a, (int(width), max(1, int(round(msg.height * width / msg.width)))),
-                       interpolation=cv2.INTER_AREA)
+                       interpolation=cv2.INTER_LINEAR)     # 0.5 ms; INTER_AREA: 4
     ok, buf = cv2.imencode('.jpg', a, [int(cv2.IMWRITE_JPEG_QUALITY), quality])
     return buf.tobytes() if ok else None

@@ -4,8 +4,9 @@
 Streams: every client of ``/ws`` gets the model poses, sim time and real-time factor
 (``{"type": "poses"}``) at ``rate`` Hz, the phone camera's latest JPEG (a binary
 message) at most ``camera_rate`` Hz and each phone display's image topic as JPEG
-(``{"type": "display"}``) at most ``display_rate`` Hz. Each client has one slot per stream that the next
-value overwrites: a slow client gets the latest and loses the rest; nothing waits for it.
+(``{"type": "display"}``) at most ``display_rate`` Hz. Each client has one slot per stream
+that the next value overwrites: a slow client gets the latest and loses the rest; nothing
+waits for it.
 
 Control: one client holds control (the first that sends a command needing it, or asks with
 ``{"op": "control", "take": true}``); the others are read-only until it lets go or leaves.

@@ -2,8 +2,8 @@
 instance's actions call (/gazebo/set_model_state, <ns>/inject_touch, <ns>/press_button,
 /gazebo/set_environment, /gazebo/set_sensor_fault, /gazebo/step_world, pause/unpause,
 reset), and the latest of what the world publishes (/gazebo/model_states, /clock, the
-phone camera's image, the image topics the phones' displays show: ``watch_images``). The subscribers only keep the latest message: nothing here can hold
-the world back."""
+phone camera's image, the image topics the phones' displays show: ``watch_images``). The
+subscribers only keep the latest message: nothing here can hold the world back."""
 import threading
 import time
 

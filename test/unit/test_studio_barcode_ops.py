@@ -76,15 +76,23 @@ def test_the_studio_decodes_with_the_runners_decoder_and_the_runner_accepts_its_
     assert barcode.decode(image(np.full((60, 80, 3), 200, np.uint8))) == []
 
 
-def test_a_new_camera_image_is_decoded_once_and_only_while_a_page_is_connected():
+def watch(s, c, on=True):
+    rep = asyncio.new_event_loop().run_until_complete(
+        s.handle_text(json.dumps({'v': 1, 'op': 'barcode', 'on': on}), c))
+    assert rep['ok'] and rep['on'] is on, rep
+
+
+def test_a_new_camera_image_is_decoded_once_and_only_while_a_page_that_asked_is_there():
     s = studio()
     loop = asyncio.new_event_loop()
     s.world.show(qr_image())
+    c, script = Client(FakeWs(), '127.0.0.1'), Client(FakeWs(), '127.0.0.1')
+    s.clients += [c, script]
     loop.run_until_complete(barcode.tick(s, loop))
-    assert getattr(s, 'barcode_reader', None) is None          # nobody watches: no decode
-    c = Client(FakeWs(), '127.0.0.1')
-    s.clients.append(c)
+    assert s.barcode_reader.result is None                    # nobody asked: no decode
+    watch(s, c)
     loop.run_until_complete(barcode.tick(s, loop))
+    assert 'barcode' not in script.slots                      # only to the page that asked
     m = json.loads(c.slots.pop('barcode'))
     assert m['type'] == 'barcode' and m['topic'] == CAMERA and m['error'] is None
     assert m['codes'] == [{'type': 'QR-Code', 'data': URL}]
@@ -94,13 +102,20 @@ def test_a_new_camera_image_is_decoded_once_and_only_while_a_page_is_connected()
     assert s.barcode_reader.seq == seq and json.loads(c.slots['barcode'])['codes'] == 'kept'
     s.world.show(image(np.zeros((40, 40, 3), np.uint8)))      # ...until a new image
     loop.run_until_complete(barcode.tick(s, loop))
-    assert json.loads(c.slots['barcode'])['codes'] == []
+    assert json.loads(c.slots.pop('barcode'))['codes'] == []
+    s.clients.remove(c)                                       # the page left: no decode
+    s.world.show(qr_image())
+    loop.run_until_complete(barcode.tick(s, loop))
+    assert s.barcode_reader.result['codes'] == [] and not s.barcode_reader.watchers
+    rep = run(s.handle_text(json.dumps({'v': 1, 'op': 'barcode', 'on': True})))
+    assert not rep['ok'] and 'not to POST /api/cmd' in rep['error']
 
 
 def test_an_image_the_decoder_cannot_read_is_one_log_line_and_the_reader_goes_on():
     s = studio()
     loop = asyncio.new_event_loop()
     s.clients.append(Client(FakeWs(), '127.0.0.1'))
+    watch(s, s.clients[0])
     for _ in range(2):
         bad = image(np.zeros((4, 4, 3), np.uint8))
         bad.encoding = '32FC1'

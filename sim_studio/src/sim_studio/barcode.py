@@ -1,9 +1,10 @@
 """The decoded barcode of the phone camera (issue 47 part 4): the studio decodes the camera
 panel's image with the scenario runner's own decoder (``testing_instance.scenario.expect.
 Predicate.image_facts``: simvid.barcode, zbar), at most ``RATE`` times a second of wall
-time, in a worker thread, only while a page is connected and only for an image it has not
-decoded yet, and streams the result (``{"type": "barcode", "topic", "t", "codes": [{type,
-data}], "error"}``, latest wins). The page (static/ext/barcode.js) shows it under the camera
+time, in a worker thread, only while a page that asked for it is connected (``{"op":
+"barcode", "on": true}``: the page does at its start; a script that did not costs nothing)
+and only for an image it has not decoded yet, and streams the result to those pages
+(``{"type": "barcode", "topic", "t", "codes": [{type, data}], "error"}``, latest wins). The page (static/ext/barcode.js) shows it under the camera
 view; in assert mode a click on a decoded text adds the runner's image expectation
 ``{topic: CAMERA, eventually: {barcode: TEXT}, window: [start, end]}`` (op
 ``expect_barcode``), which ``run_scenario`` judges with the same decoder."""
@@ -27,9 +28,10 @@ def _window_check(f):
 
 OPS = {
     'barcode': dict(
-        required={}, optional={},
+        required={}, optional={'on': None}, kinds={'on': 'bool'},
         doc="the barcodes decoded now in the camera panel's latest image (the runner's "
-            'decoder): `topic`, `t` (its stamp), `codes` [{type, data}]'),
+            'decoder): `topic`, `t` (its stamp), `codes` [{type, data}], `error`; `on` '
+            'true/false: stream them to this page (2 Hz, a new image only) or stop'),
     'expect_barcode': dict(
         required={'topic': 'str', 'text': 'str', 'mode': MODES},
         optional={'start': None, 'end': None, 'name': None},
@@ -73,6 +75,12 @@ class Reader(object):
         self.seq = None
         self.result = None               # the stream message's fields
         self.errors = set()              # the decode errors already logged
+        self.watchers = set()            # the clients that asked for the stream
+
+    def watching(self, clients):
+        """The clients that asked for the stream and are still connected."""
+        self.watchers &= set(clients)
+        return [c for c in clients if c in self.watchers]
 
     def due(self):
         w = self.studio.world
@@ -104,15 +112,16 @@ def _reader(studio):
 
 
 async def tick(studio, loop):
-    """One look: decode a new camera image while a page is connected, and send the latest
-    result to every client."""
-    if not studio.clients:
-        return
+    """One look: decode a new camera image while a page that asked is connected, and send
+    the latest result to those pages."""
     r = _reader(studio)
+    watchers = r.watching(studio.clients)
+    if not watchers:
+        return
     if r.due():
         await loop.run_in_executor(None, r.read)
     if r.result is not None:
-        studio.broadcast('barcode', r.result)
+        studio.broadcast('barcode', r.result, watchers)
 
 
 async def handle(studio, cmd, client):
@@ -120,6 +129,12 @@ async def handle(studio, cmd, client):
     f = cmd.fields
     if cmd.op == 'barcode':
         r = _reader(studio)
+        if f['on'] is not None:
+            if client is None:
+                raise ValueError('barcode: the stream goes to a page (/ws), not to POST '
+                                 '/api/cmd')
+            (r.watchers.add if f['on'] else r.watchers.discard)(client)
+            return {'on': f['on']}
         if getattr(studio.world, 'image', None) is None:
             raise ValueError('barcode: no image from the camera topic %s yet'
                              % getattr(studio.world, 'camera_topic', None))

@@ -1,6 +1,7 @@
 // The decoded barcode of the phone camera (issue 47 part 4; sim_studio/barcode.py): under the
 // camera view (data-testid="barcode") the texts the runner's own decoder finds in the
-// camera's latest image (the `barcode` stream, 2 Hz), each a `barcode-code`; `no barcode`
+// camera's latest image (the `barcode` stream, 2 Hz, asked for with {op: 'barcode', on: true}
+// at each connection), each a `barcode-code`; `no barcode`
 // when there is none. In assert mode a click on a text opens a form (`barcode-form`:
 // eventually or always, a window in s of sim time; empty: the whole run) whose `add`
 // (`barcode-add`) makes it the runner's image expectation {topic, eventually: {barcode:
@@ -54,6 +55,7 @@
     });
   }
   S.on('barcode', show);
+  S.on('hello', () => S.send({op: 'barcode', on: true}));     // the stream, to this page
 
   box.addEventListener('click', (e) => {
     const code = e.target.closest('.code');

@@ -57,11 +57,14 @@ RING_POINT = """(() => {
     tried.push([deg, best.length]);
     if (best.length >= 3) {
       const m = best[Math.floor(best.length / 2)];
-      return {x: m[0], y: m[1], deg: deg, run: best.length};
+      return {x: m[0], y: m[1], deg: deg, run: best.length, top: rect.top};
     }
   }
   return {tried: tried};
 })()"""
+
+
+VIEW_TOP = 'studio.renderer.domElement.getBoundingClientRect().top'
 
 
 def yaw_of(q):
@@ -103,15 +106,20 @@ def _drag_ring(studio, page, dx, paused):
         "return Math.abs(Math.atan2(2 * (o.w * o.z + o.x * o.y), 1 - 2 * (o.y * o.y + "
         "o.z * o.z)) - %r) < 1e-3; })()" % yaw_of(q0), timeout=30000)
     page.evaluate("studio.lookAt('mobile_device')")
+    # the header's status line empty (a message there can change the header's height, and
+    # the view would move under the mouse when a reply clears it), the layout settled
+    page.evaluate("studio.showError(null); new Promise((r) => requestAnimationFrame(() => "
+                  "requestAnimationFrame(r)))")
     p = page.evaluate(RING_POINT)
     assert 'x' in p, ('no point of the z ring on the screen', p)
     page.mouse.move(p['x'], p['y'])               # hover: the handle takes the z axis
     assert page.evaluate('studio.handle.axis') == 'Z', p
     page.mouse.down()
-    assert page.evaluate('studio.dragging')
+    assert page.evaluate('[studio.dragging, studio.handle.axis]') == [True, 'Z'], p
     page.mouse.move(p['x'] + dx / 2, p['y'])
     page.mouse.move(p['x'] + dx, p['y'])
     page.mouse.up()
+    assert page.evaluate(VIEW_TOP) == p['top'], ('the view moved during the drag', p)
     angle = page.evaluate('studio.handle.rotationAngle')
     want = wrap(yaw_of(q0) + angle)
     deadline = time.monotonic() + 30
@@ -120,7 +128,7 @@ def _drag_ring(studio, page, dx, paused):
         if abs(wrap(yaw_of(q) - want)) < 2e-3 or time.monotonic() > deadline:
             break
         time.sleep(0.1)
-    assert abs(wrap(yaw_of(q) - want)) < 2e-3, (yaw_of(q0), angle, yaw_of(q), paused)
+    assert abs(wrap(yaw_of(q) - want)) < 2e-3, (yaw_of(q0), angle, q, paused, p)
     assert max(abs(a - b) for a, b in zip(pos, before)) < 2e-3, (before, pos)
     assert max(abs(v) for v in tilt_of(q)) < 2e-3, tilt_of(q)
     return yaw_of(q0), yaw_of(q), angle

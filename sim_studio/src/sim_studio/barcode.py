@@ -148,18 +148,6 @@ async def handle(studio, cmd, client):
 
 def routes(app, studio):
     """The reader's task: a look every 1/RATE s of wall time."""
-    async def start(_app):
-        async def run():
-            loop = asyncio.get_event_loop()
-            while True:
-                await asyncio.sleep(1.0 / RATE)
-                try:
-                    await tick(studio, loop)
-                except Exception as e:  # noqa: BLE001 - the reader must outlive a bad image
-                    studio.log('studio: barcode: %s: %s' % (type(e).__name__, e))
-        app['barcode'] = asyncio.ensure_future(run())
-
-    async def stop(_app):
-        app['barcode'].cancel()
-    app.on_startup.append(start)
-    app.on_shutdown.append(stop)
+    from .extensions import periodic
+    periodic(app, studio, 'barcode', 1.0 / RATE,
+             lambda: tick(studio, asyncio.get_event_loop()))

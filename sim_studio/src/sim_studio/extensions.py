@@ -16,11 +16,12 @@ Its page script is ``static/ext/<name>.js`` (with ``static/ext/<name>.css`` if a
 ``server.index_html`` adds every script and style sheet there to the page, sorted by name,
 after studio.js, so an extension needs no edit of index.html. It uses ``window.studio``
 (studio.js: ``send``, ``on``, ``onFrame``, ``scene3d``, ``panel``...)."""
+import asyncio
 import importlib
 
 from . import protocol
 
-__all__ = ['NAMES', 'load', 'handler']
+__all__ = ['NAMES', 'load', 'handler', 'periodic']
 
 #: the extension modules, in the order they are loaded
 NAMES = ('moves', 'overlay', 'builder', 'study', 'editor', 'timetravel', 'barcode', 'spawned',
@@ -50,3 +51,26 @@ def load(names=None):
 def handler(op):
     """The coroutine function that carries out ``op``, if an extension has it."""
     return _HANDLERS.get(op)
+
+
+def periodic(app, studio, name, period, tick):
+    """An extension's task while the server runs: ``await tick()`` every ``period`` s of wall
+    time (started with the app, cancelled at its shutdown). An exception of one tick is one
+    log line ``studio: NAME: Type: message`` and the next tick comes as usual."""
+    async def run():
+        while True:
+            await asyncio.sleep(period)
+            try:
+                await tick()
+            except asyncio.CancelledError:
+                raise
+            except Exception as e:  # noqa: BLE001 - the task must outlive a bad tick
+                studio.log('studio: %s: %s: %s' % (name, type(e).__name__, e))
+
+    async def start(_app):
+        app['periodic:' + name] = asyncio.ensure_future(run())
+
+    async def stop(_app):
+        app['periodic:' + name].cancel()
+    app.on_startup.append(start)
+    app.on_shutdown.append(stop)

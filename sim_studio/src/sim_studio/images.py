@@ -116,19 +116,6 @@ async def handle(studio, cmd, client):
 def routes(app, studio):
     """The streaming task: a look every 1/RATE s of wall time."""
     import time
-
-    async def start(_app):
-        async def run():
-            loop = asyncio.get_event_loop()
-            while True:
-                await asyncio.sleep(1.0 / RATE)
-                try:
-                    await tick(studio, loop, time.monotonic())
-                except Exception as e:  # noqa: BLE001 - one bad image must not end it
-                    studio.log('studio: images: %s: %s' % (type(e).__name__, e))
-        app['images'] = asyncio.ensure_future(run())
-
-    async def stop(_app):
-        app['images'].cancel()
-    app.on_startup.append(start)
-    app.on_shutdown.append(stop)
+    from .extensions import periodic
+    periodic(app, studio, 'images', 1.0 / RATE,
+             lambda: tick(studio, asyncio.get_event_loop(), time.monotonic()))

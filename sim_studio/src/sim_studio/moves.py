@@ -396,17 +396,10 @@ async def handle(studio, cmd, client):
 def routes(app, studio):
     """The mover's task: the walks' poses at their sim times (looked at every 10 ms of wall
     time)."""
-    async def start(_app):
-        async def tick():
-            loop = asyncio.get_event_loop()
-            st = _state(studio)
-            while True:
-                if st.mover.pending():
-                    await loop.run_in_executor(None, st.mover.run_due)
-                await asyncio.sleep(0.01)
-        app['moves'] = asyncio.ensure_future(tick())
+    from .extensions import periodic
 
-    async def stop(_app):
-        app['moves'].cancel()
-    app.on_startup.append(start)
-    app.on_shutdown.append(stop)
+    async def tick():
+        st = _state(studio)
+        if st.mover.pending():
+            await asyncio.get_event_loop().run_in_executor(None, st.mover.run_due)
+    periodic(app, studio, 'moves', 0.01, tick)

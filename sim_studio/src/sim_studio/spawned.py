@@ -190,23 +190,8 @@ async def tick(studio, loop=None):
 
 
 def routes(app, studio):
-    """The look at /gazebo/model_states every PERIOD s while the server runs."""
-    async def watch():
-        while True:
-            await asyncio.sleep(PERIOD)
-            try:
-                await tick(studio)
-            except asyncio.CancelledError:
-                raise
-            except Exception as e:  # noqa: BLE001 - the watch must outlive a bad tick
-                studio.log('studio: spawned models: %s: %s' % (type(e).__name__, e))
-
-    async def start(_app):
-        # the first look asks also for the models present at start that the world file and
-        # the launch's parameters did not describe
-        app['spawned'] = asyncio.ensure_future(watch())
-
-    async def stop(_app):
-        app['spawned'].cancel()
-    app.on_startup.append(start)
-    app.on_shutdown.append(stop)
+    """The look at /gazebo/model_states every PERIOD s while the server runs (the first look
+    asks also for the models present at start that the world file and the launch's
+    parameters did not describe)."""
+    from .extensions import periodic
+    periodic(app, studio, 'spawned models', PERIOD, lambda: tick(studio))

@@ -14,7 +14,7 @@ import time
 import numpy as np
 import pytest
 
-from fixtures.studio import data_url, png_pixels, post
+from fixtures.studio import until as _until, data_url, png_pixels, post
 from test_studio import model_state, probe
 
 pytestmark = pytest.mark.rostest
@@ -35,16 +35,6 @@ def page(shared_studio, shared_page):
                                     'fault': 'none'}))
     post(shared_studio, json.dumps({'v': 1, 'op': 'set_pose', 'model': 'mobile_device',
                                     'position': start, 'rpy': [0, 0, 0]}))
-
-
-def _until(fn, timeout=30.0, what='condition'):
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        assert time.monotonic() < deadline, 'timed out waiting for ' + what
-        time.sleep(0.1)
 
 
 def test_a_preset_clicked_puts_the_phone_on_the_desk(shared_studio, page):

@@ -7,12 +7,11 @@ move), and once deleted it is gone from the scene and the view."""
 import json
 import subprocess
 import sys
-import time
 import urllib.request
 
 import pytest
 
-from fixtures.studio import data_url, png_pixels, post, scene_names
+from fixtures.studio import until as _until, data_url, png_pixels, post, scene_names
 
 pytestmark = pytest.mark.rostest
 
@@ -60,16 +59,6 @@ class Spawner(object):
         line = self.p.stdout.readline()
         self.p.wait(30)
         assert line.startswith('True'), line
-
-
-def _until(fn, timeout=30.0, what='condition'):
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        assert time.monotonic() < deadline, 'timed out waiting for ' + what
-        time.sleep(0.1)
 
 
 def scene_model(studio):

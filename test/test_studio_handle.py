@@ -8,6 +8,7 @@ import math
 import time
 
 import pytest
+from sim_world.transforms import rpy_from_quat
 
 from fixtures.studio import post
 from test_studio import model_state
@@ -68,15 +69,13 @@ VIEW_TOP = 'studio.renderer.domElement.getBoundingClientRect().top'
 
 
 def yaw_of(q):
-    x, y, z, w = q
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return float(rpy_from_quat(q)[2])
 
 
 def tilt_of(q):
     """(roll, pitch) of a quaternion [x, y, z, w]."""
-    x, y, z, w = q
-    return (math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)),
-            math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x)))))
+    r, p, _y = rpy_from_quat(q)
+    return float(r), float(p)
 
 
 def wrap(a):

@@ -200,7 +200,8 @@ def test_undo_takes_back_each_world_change_that_has_an_inverse(phone_desc):
     # the world's environment as /gazebo/environment had it before the session
     st.study.on_environment(types.SimpleNamespace(values=[
         types.SimpleNamespace(name='temperature', value=15.0),
-        types.SimpleNamespace(name='daylight', value=10000.0)]), wall=1.0)
+        types.SimpleNamespace(name='daylight', value=10000.0),
+        types.SimpleNamespace(name='time_of_day', value=12.0)]), wall=1.0)
     send(st, op='study_tasks', tasks_text='- change everything')
     send(st, op='study_start', person='P4')
     send(st, op='study_task', action='start')
@@ -241,6 +242,12 @@ def test_undo_takes_back_each_world_change_that_has_an_inverse(phone_desc):
     assert [c[0] for c in w.calls] == ['set_pose', 'fault', 'fault', 'set_environment',
                                        'set_environment']
     assert 'nothing to undo' in send(st, op='study_undo')['error']
+    # daylight follows the hour: an hour's undo puts the daylight before it back, after it
+    assert send(st, op='set_environment', values={'time_of_day': 6})['ok']
+    done, applied = undo()
+    assert done == 'set_environment'
+    assert list(applied[0][1]['values'].items()) == [('time_of_day', 12.0),
+                                                     ('daylight', 10000.0)]
     # a walk under way: stopped, and the phone back where the walk found it
     rep = send(st, op='walk', model='mobile_device', waypoints=[[2, 2, 3], [2, 4, 3]],
                speed=1.0)
@@ -260,9 +267,10 @@ def test_undo_takes_back_each_world_change_that_has_an_inverse(phone_desc):
     send(st, op='study_task', action='finish')
     send(st, op='study_end')
     row = next(csv.DictReader(io.StringIO(st.study.csv())))
-    assert (row['undos'], row['errors']) == ('9', '1')      # the undo with nothing left
+    assert (row['undos'], row['errors']) == ('10', '1')     # the undo with nothing left
     # a replay sends what each undo sent
     ops = [e['op'] for e in st.study.replay_entries(0)]
     assert ops[:9] == [c['op'] for c in changes] + ['set_pose']
     assert ops[9:] == ['charger', 'radio', 'fault', 'fault', 'set_environment',
-                       'set_environment', 'walk', 'set_pose', 'walk', 'set_pose', 'set_pose']
+                       'set_environment', 'set_environment', 'set_environment', 'walk',
+                       'set_pose', 'walk', 'set_pose', 'set_pose']

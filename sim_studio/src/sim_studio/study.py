@@ -233,7 +233,12 @@ class Study(object):
                                       'rpy': list(before['rpy'])}))
             stop = m if op == 'walk' else None
         elif op == 'set_environment':
-            old = {k: self._env_before(k, wall) for k in sorted(f['values'])}
+            # daylight follows time_of_day (the last of the two set wins): an hour's undo
+            # puts back the daylight before it too, after the hour
+            names = sorted(k for k in f['values'] if k != 'daylight')
+            if 'daylight' in f['values'] or 'time_of_day' in f['values']:
+                names.append('daylight')
+            old = {k: self._env_before(k, wall) for k in names}
             old = {k: v for k, v in old.items() if v is not None}
             if not old:
                 return None

@@ -162,7 +162,8 @@ class _Host(object):
         self.rtf = 0.0
         self.start_models = None
         self.api = types.SimpleNamespace(spawned={'mobile_device': ('urdf', spawn_request()),
-                                                  'gone': ('sdf', spawn_request())})
+                                                  'gone': ('sdf', spawn_request())},
+                                         real_time_factor=None)   # before the run loop
 
 
 def req(seed=-1, rtf=-1.0, poses=''):
@@ -180,6 +181,9 @@ def test_reload_plan_defaults_and_remembered_models():
     assert plan['poses'] == {'mobile_device': {'x': 1, 'Y': 0.5}}
     assert h._plan(req(poses='{"mobile_device": {"z": 2.5}}'))['poses']['mobile_device'] == \
         {'z': 2.5}
+    # the pace /gazebo/set_physics_properties set (the run loop's) is the one a reload keeps
+    h.api.real_time_factor = 2.0
+    assert h._plan(req())['rtf'] == 2.0
 
 
 @pytest.mark.parametrize('r, why', [

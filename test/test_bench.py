@@ -50,7 +50,7 @@ SKIPPED = {
     'feeds': [(r'^vnc_skipped: ', r'vnc_.*'),
               (r'^pcl2image_skipped: ', r'pcl.*')],
     'loopback': [(r'^# image_sink conversion skipped', r'image_sink_.*')],
-    'studio': [(r'^# chromium: ', r'page_first_frame_ms|rtf_chromium_ratio')],
+    'studio_streams': [(r'^# chromium: ', r'page_first_frame_ms|rtf_chromium_ratio')],
 }
 
 

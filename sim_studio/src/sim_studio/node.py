@@ -160,11 +160,20 @@ def main(argv=None):
               flush=True)
         if token:
             print('studio: token %s (the page, /ws and /api need it)' % token, flush=True)
+        # from here Ctrl-C and SIGTERM stop the loop from inside it: a KeyboardInterrupt
+        # raised by a Python-level handler lands wherever the interpreter is, and once it
+        # landed in a transport's __del__ during garbage collection, which swallows it, and
+        # the studio never stopped (fresh clone of 2026-12-06 13:55)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, loop.stop)
         try:
             loop.run_forever()
         except KeyboardInterrupt:
             pass
         finally:
+            for sig in (signal.SIGINT, signal.SIGTERM):   # a second Ctrl-C ends the clean-up
+                loop.remove_signal_handler(sig)
+                signal.signal(sig, _term)
             if fox is not None:
                 fox.stop()
             loop.run_until_complete(runner.cleanup())

@@ -289,20 +289,8 @@ def describe_sdf(text, name, assets=None, base_dir=None):
 
 def description_model(fmt, xml, name, robot_namespace='', base_dir=None):
     """The sim_world Model of a description as /gazebo/get_model_description answers it
-    (``fmt`` 'urdf' or 'sdf'), in the spawn's namespace as the world fills it
-    (sim_world.spawn.fill_robot_namespace); ModelError/ValueError when it cannot be read."""
-    from sim_world.spawn import fill_robot_namespace
-    ns = (robot_namespace or '').strip('/')
-    if fmt == 'urdf':
-        from sim_world.urdf import parse_urdf
-        model = parse_urdf(xml, name=name, base_dir=base_dir or None, robot_namespace=ns)
-    elif fmt == 'sdf':
-        from sim_world.sdf import parse_sdf_model
-        model = parse_sdf_model(xml, base_dir or None)
-        model.name = name
-        model.robot_namespace = ns
-    else:
-        raise ValueError('model %s: unknown description format %r (urdf or sdf)'
-                         % (name, fmt))
-    fill_robot_namespace(model, robot_namespace)
-    return model
+    (``fmt`` 'urdf' or 'sdf'), read as the spawn services read it
+    (sim_world.spawn.parse_description: in the spawn's namespace); ModelError/ValueError when
+    it cannot be read."""
+    from sim_world.spawn import parse_description
+    return parse_description(fmt, xml, name, robot_namespace, base_dir or None)

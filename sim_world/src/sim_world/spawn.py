@@ -22,7 +22,7 @@ import argparse
 import sys
 
 __all__ = ['parse_args', 'main', 'spawn_xml', 'one_line', 'fill_robot_namespace',
-           'model_description']
+           'model_description', 'parse_description']
 
 
 def one_line(text):
@@ -81,9 +81,7 @@ def spawn_xml(world, kind, name, xml, robot_namespace='', initial_pose=None,
 
 def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_frame):
     from .model import ModelError
-    from .sdf import parse_sdf_model
     from .transforms import InvalidPose, Pose
-    from .urdf import parse_urdf
     if not name:
         return False, 'SpawnModel: model_name is empty'
     try:
@@ -101,14 +99,9 @@ def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_
         if name in world.models:
             return False, 'SpawnModel: a model named %r already exists' % name
         try:
-            if kind == 'sdf':
-                model = parse_sdf_model(xml)
-                model.name = name
-                model.robot_namespace = namespace
-            else:
-                model = parse_urdf(xml, name=name, robot_namespace=namespace)
+            model = parse_description(kind, xml, name, robot_namespace)
+            if kind != 'sdf':
                 model.tf_prefix = tf_prefix
-            fill_robot_namespace(model, robot_namespace)
             if reference_frame not in ('', 'world', 'map', '/world', '/map'):
                 frame, _, _ = world.entity_state(reference_frame)
                 initial = frame * initial
@@ -120,6 +113,28 @@ def _spawn_xml(world, kind, name, xml, robot_namespace, initial_pose, reference_
             return False, 'SpawnModel: model %r not spawned: reference_frame: %s' % (
                 name, e.args[0])
     return True, 'SpawnModel: Successfully spawned entity'
+
+
+def parse_description(kind, xml, name, robot_namespace='', base_dir=None):
+    """The Model of a description as the spawn services read it: ``kind`` 'urdf'
+    (sim_world.urdf) or 'sdf' (one <model>, sim_world.sdf), named ``name``, in
+    ``robot_namespace`` (its plugins filled in: fill_robot_namespace); ``base_dir``: the folder
+    relative meshes resolve against. ModelError when it cannot be read; ValueError for
+    another kind. Also what the studio reads /gazebo/get_model_description's answer with."""
+    namespace = (robot_namespace or '').strip('/')
+    if kind == 'sdf':
+        from .sdf import parse_sdf_model
+        model = parse_sdf_model(xml, base_dir)
+        model.name = name
+        model.robot_namespace = namespace
+    elif kind == 'urdf':
+        from .urdf import parse_urdf
+        model = parse_urdf(xml, name=name, base_dir=base_dir, robot_namespace=namespace)
+    else:
+        raise ValueError('model %s: unknown description format %r (urdf or sdf)'
+                         % (name, kind))
+    fill_robot_namespace(model, robot_namespace)
+    return model
 
 
 def model_description(world, name, spawned=None):

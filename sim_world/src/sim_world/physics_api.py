@@ -69,9 +69,7 @@ def apply_physics(world, plan):
     _rtf, g, config = plan
     if config is not None:
         world.physics.set_solver_config(**config)
-    world.physics.set_gravity(g)
-    import numpy as np
-    world.gravity = np.asarray(g, float)
+    world.set_gravity(g)
 
 
 class PhysicsRosApi(object):

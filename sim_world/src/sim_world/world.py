@@ -119,13 +119,18 @@ class World(object):
         self.on_model_deleted = []
         self.before_plugin_updates = []   # callbacks(sim_time) (ROS API: /clock first)
 
+    def set_gravity(self, g):
+        """The gravity (m/s^2, world frame) of the engine and of what reads ``gravity``
+        (the IMU's, the pose sensors'): the world file's, or /gazebo/set_physics_properties'."""
+        self.physics.set_gravity(g)
+        self.gravity = np.asarray(self.physics.gravity, float)
+
     # -- loading ---------------------------------------------------------------------------
     def load_world_file(self, path):
         """Load an SDF world file. Raises ModelError naming the file or element."""
         desc = load_world_file(path)
         self.name = desc.name
-        self.physics.set_gravity(desc.gravity)
-        self.gravity = np.asarray(desc.gravity, float)
+        self.set_gravity(desc.gravity)
         self.lights = list(desc.lights)
         self.shadows = bool(desc.shadows)
         self.ambient, self.background = desc.ambient, desc.background

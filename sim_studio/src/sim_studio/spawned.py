@@ -37,14 +37,14 @@ class _State(object):
         self.pending = set()       # names being asked now
 
 
-_STATES = {}
-
-
 def state(studio):
-    key = id(studio)
-    if key not in _STATES:
-        _STATES[key] = _State()
-    return _STATES[key]
+    """This extension's state, kept on the studio (as barcode's reader and images' watch
+    are): a module dict keyed by id(studio) outlived its studio and could hand a new one,
+    made at a freed object's address, the old one's state."""
+    st = getattr(studio, 'spawned_state', None)
+    if st is None:
+        st = studio.spawned_state = _State()
+    return st
 
 
 def describe(studio, name):

@@ -177,3 +177,10 @@ def test_the_display_stream_subscribes_a_later_phones_display():
         await st._stream_displays(loop, 3.0)
     asyncio.run(run())
     assert watched == [['/mobile_device/image_raw'], ['/phone3/screen']]
+
+
+def test_attach_hooks_the_icons_into_world_info_once():
+    studio = SimpleNamespace()
+    spawned.attach(studio)
+    spawned.attach(studio)
+    assert studio.icon_hooks == [spawned.icons]

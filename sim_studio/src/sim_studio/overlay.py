@@ -191,8 +191,10 @@ def _world_info(studio):
     w = offline_world(world_file(studio))
     with w.lock:
         info = world_info(w)
-    from .spawned import icons     # spawned models' icons; each at its model's pose now
-    info['icons'] = icons(studio, info['icons'])
+    # what other extensions add (spawned.icons: the spawned models' icons, and each icon at
+    # its model's pose now), registered by their attach(): overlay imports none of them
+    for fn in getattr(studio, 'icon_hooks', ()):
+        info['icons'] = fn(studio, info['icons'])
     return info
 
 

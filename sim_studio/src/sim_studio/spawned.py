@@ -17,12 +17,13 @@ here]}: the page then asks ``scene`` and draws, replaces or removes its models
 line naming it and why.
 
 ``icons(studio)``: the icons of the models described here, and every icon with a model at
-that model's current pose (the ``world_info`` op of overlay.py adds them)."""
+that model's current pose (``attach`` makes it one of ``studio.icon_hooks``, which the
+``world_info`` op of overlay.py applies)."""
 import asyncio
 
 import numpy as np
 
-__all__ = ['routes', 'describe', 'model_icons', 'icons', 'state', 'tick', 'PERIOD']
+__all__ = ['attach', 'routes', 'describe', 'model_icons', 'icons', 'state', 'tick', 'PERIOD']
 
 PERIOD = 0.5                   # s between two looks at /gazebo/model_states
 
@@ -187,6 +188,16 @@ async def tick(studio, loop=None):
     if changed:
         _tell(studio, st)
     return new
+
+
+def attach(studio):
+    """``world_info``'s icons (overlay.py) pass through ``icons``: the hook list
+    ``studio.icon_hooks`` keeps overlay from importing this module, which imports it."""
+    hooks = getattr(studio, 'icon_hooks', None)
+    if hooks is None:
+        hooks = studio.icon_hooks = []
+    if icons not in hooks:
+        hooks.append(icons)
 
 
 def routes(app, studio):

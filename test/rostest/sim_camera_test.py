@@ -80,6 +80,12 @@ class SimCamera(unittest.TestCase):
 
     def test_1_info_matches_image_and_urdf(self):
         imgs = self.frames(5)
+        # camera_info comes on its own connection: the last images' may land a moment after
+        # them (a fresh clone of 2026-12-06 saw the fifth image before its info)
+        deadline = time.time() + 10
+        while time.time() < deadline and not all(
+                im.header.stamp in {i.header.stamp for i in list(self.infos)} for im in imgs):
+            time.sleep(0.05)
         infos = {i.header.stamp: i for i in list(self.infos)}
         f = 160 / (2 * math.tan(0.45))
         for im in imgs:
